@@ -1,0 +1,149 @@
+#include "somm/omm_array.h"
+
+#include <algorithm>
+#include <cstring>
+
+namespace somm {
+
+namespace {
+
+uint64_t mix(uint64_t h, uint64_t x) {
+  h ^= x + 0x9e3779b97f4a7c15ull + (h << 6) + (h >> 2);
+  h *= 0xff51afd7ed558ccdull;
+  return h ^ (h >> 33);
+}
+
+uint64_t hashMap(const Micromap& m) {
+  uint64_t h = mix(uint64_t(m.level()) << 8 | uint64_t(m.format()), 0x51u);
+  const auto bytes = m.bytes();
+  size_t i = 0;
+  for (; i + 8 <= bytes.size(); i += 8) {
+    uint64_t w;
+    std::memcpy(&w, bytes.data() + i, 8);
+    h = mix(h, w);
+  }
+  uint64_t tail = 0;
+  for (size_t k = 0; i < bytes.size(); ++i, ++k) tail |= uint64_t(bytes[i]) << (8 * k);
+  return mix(h, tail);
+}
+
+void putU32(std::vector<uint8_t>& out, uint32_t v) {
+  for (int i = 0; i < 4; ++i) out.push_back(uint8_t(v >> (8 * i)));
+}
+void putU16(std::vector<uint8_t>& out, uint16_t v) {
+  out.push_back(uint8_t(v));
+  out.push_back(uint8_t(v >> 8));
+}
+
+}  // namespace
+
+IndexType OmmArray::indexType() const noexcept {
+  for (int32_t i : indices)
+    if (i >= 0 && i > 0xfffb) return IndexType::UInt32;  // 0xfffc..0xffff are the 16-bit special values
+  return IndexType::UInt16;
+}
+
+std::vector<uint8_t> OmmArray::indexBufferBytes() const {
+  std::vector<uint8_t> out;
+  const bool wide = indexType() == IndexType::UInt32;
+  out.reserve(indices.size() * (wide ? 4 : 2));
+  for (int32_t i : indices) {
+    if (wide)
+      putU32(out, uint32_t(i));
+    else
+      putU16(out, uint16_t(uint32_t(i)));  // -1 → 0xffff ... -4 → 0xfffc
+  }
+  return out;
+}
+
+std::vector<uint8_t> OmmArray::descriptorBytes() const {
+  std::vector<uint8_t> out;
+  out.reserve(descriptors.size() * 8);
+  for (const TriangleDescriptor& d : descriptors) {
+    putU32(out, d.dataOffset);
+    putU16(out, d.subdivisionLevel);
+    putU16(out, d.format);
+  }
+  return out;
+}
+
+State OmmArray::state(uint32_t triangle, uint32_t index) const noexcept {
+  const int32_t i = indices[triangle];
+  if (i < 0) return stateOfSpecialIndex(i);
+  const TriangleDescriptor& d = descriptors[size_t(i)];
+  return readPackedState(data.data() + d.dataOffset, Format(d.format), index);
+}
+
+State OmmArray::stateUV(uint32_t triangle, float u, float v) const noexcept {
+  const int32_t i = indices[triangle];
+  if (i < 0) return stateOfSpecialIndex(i);
+  const TriangleDescriptor& d = descriptors[size_t(i)];
+  return readPackedState(data.data() + d.dataOffset, Format(d.format), baryToIndex(u, v, d.subdivisionLevel));
+}
+
+void OmmArrayBuilder::addSpecial(State s) { array_.indices.push_back(specialIndexFor(s)); }
+
+void OmmArrayBuilder::grow() {
+  std::vector<std::vector<Slot>> next(buckets_.size() * 4);
+  for (auto& b : buckets_)
+    for (const Slot& s : b) next[s.hash & (next.size() - 1)].push_back(s);
+  buckets_.swap(next);
+}
+
+int32_t OmmArrayBuilder::add(const Micromap& map) {
+  if (auto u = map.uniformState()) {
+    addSpecial(*u);
+    return array_.indices.back();
+  }
+  const uint64_t h = hashMap(map);
+  auto& bucket = buckets_[h & (buckets_.size() - 1)];
+  const auto bytes = map.bytes();
+  for (const Slot& s : bucket) {
+    if (s.hash != h) continue;
+    const TriangleDescriptor& d = array_.descriptors[size_t(s.descriptor)];
+    if (d.subdivisionLevel == map.level() && d.format == uint16_t(map.format()) &&
+        std::memcmp(array_.data.data() + d.dataOffset, bytes.data(), bytes.size()) == 0) {
+      array_.indices.push_back(s.descriptor);
+      return s.descriptor;
+    }
+  }
+  const int32_t id = int32_t(array_.descriptors.size());
+  array_.descriptors.push_back(
+      TriangleDescriptor{uint32_t(array_.data.size()), uint16_t(map.level()), uint16_t(map.format())});
+  array_.data.insert(array_.data.end(), bytes.begin(), bytes.end());
+  bucket.push_back(Slot{h, id});
+  array_.indices.push_back(id);
+  if (++uniqueCount_ > buckets_.size() * 2) grow();
+  return id;
+}
+
+OmmArray OmmArrayBuilder::finish() {
+  // Usage histograms per (level, format): micromaps in the array (VkMicromapBuildInfoEXT) and triangles referencing
+  // them (VkAccelerationStructureTrianglesOpacityMicromapEXT).
+  auto bump = [](std::vector<UsageCount>& hist, const TriangleDescriptor& d) {
+    auto it = std::find_if(hist.begin(), hist.end(), [&](const UsageCount& c) {
+      return c.subdivisionLevel == d.subdivisionLevel && c.format == d.format;
+    });
+    if (it == hist.end())
+      hist.push_back(UsageCount{1, d.subdivisionLevel, d.format});
+    else
+      ++it->count;
+  };
+  auto order = [](const UsageCount& a, const UsageCount& b) {
+    return a.format != b.format ? a.format < b.format : a.subdivisionLevel < b.subdivisionLevel;
+  };
+  array_.histogram.clear();
+  array_.triangleHistogram.clear();
+  for (const TriangleDescriptor& d : array_.descriptors) bump(array_.histogram, d);
+  for (int32_t i : array_.indices)
+    if (i >= 0) bump(array_.triangleHistogram, array_.descriptors[size_t(i)]);
+  std::sort(array_.histogram.begin(), array_.histogram.end(), order);
+  std::sort(array_.triangleHistogram.begin(), array_.triangleHistogram.end(), order);
+  OmmArray out = std::move(array_);
+  array_ = OmmArray{};
+  buckets_.assign(1024, {});
+  uniqueCount_ = 0;
+  return out;
+}
+
+}  // namespace somm

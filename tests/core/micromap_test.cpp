@@ -1,0 +1,138 @@
+#include "somm/micromap.h"
+
+#include <gtest/gtest.h>
+
+#include "somm/omm_array.h"
+
+namespace somm {
+namespace {
+
+TEST(Micromap, SpecLayoutTwoState) {
+  Micromap m(2, Format::TwoState);  // 16 states, 2 bytes
+  ASSERT_EQ(m.bytes().size(), 2u);
+  m.set(0, State::Opaque);
+  m.set(3, State::Opaque);
+  m.set(9, State::Opaque);
+  m.set(15, State::Opaque);
+  EXPECT_EQ(m.bytes()[0], 0x09);  // bits 0 and 3
+  EXPECT_EQ(m.bytes()[1], 0x82);  // bits 1 and 7 of byte 1
+  EXPECT_EQ(m.get(9), State::Opaque);
+  EXPECT_EQ(m.get(10), State::Transparent);
+  m.set(3, State::UnknownTransparent);  // stored as its low bit: transparent
+  EXPECT_EQ(m.get(3), State::Transparent);
+}
+
+TEST(Micromap, SpecLayoutFourState) {
+  Micromap m(1, Format::FourState);  // 4 states, 1 byte
+  m.set(0, State::Opaque);
+  m.set(1, State::UnknownTransparent);
+  m.set(2, State::UnknownOpaque);
+  m.set(3, State::Transparent);
+  EXPECT_EQ(m.bytes()[0], 0b00'11'10'01);
+  EXPECT_EQ(m.get(2), State::UnknownOpaque);
+  Micromap big(3, Format::FourState);
+  ASSERT_EQ(big.bytes().size(), 16u);
+  big.set(13, State::UnknownOpaque);  // byte 3, bits 2..3
+  EXPECT_EQ(big.bytes()[3], 0x0c);
+}
+
+TEST(Micromap, DataBytesFormula) {
+  EXPECT_EQ(micromapDataBytes(0, Format::TwoState), 1u);
+  EXPECT_EQ(micromapDataBytes(1, Format::TwoState), 1u);
+  EXPECT_EQ(micromapDataBytes(2, Format::TwoState), 2u);
+  EXPECT_EQ(micromapDataBytes(0, Format::FourState), 1u);
+  EXPECT_EQ(micromapDataBytes(1, Format::FourState), 1u);
+  EXPECT_EQ(micromapDataBytes(2, Format::FourState), 4u);
+  EXPECT_EQ(micromapDataBytes(12, Format::TwoState), 2097152u);
+  EXPECT_EQ(micromapDataBytes(12, Format::FourState), 4194304u);
+}
+
+TEST(Micromap, UniformStateAndDemotion) {
+  for (Format f : {Format::TwoState, Format::FourState})
+    for (uint32_t level : {0u, 1u, 2u, 5u}) {
+      Micromap m(level, f, State::Opaque);
+      ASSERT_EQ(m.uniformState(), State::Opaque);
+      m.set(m.size() - 1, State::Transparent);
+      if (m.size() > 1) {
+        EXPECT_FALSE(m.uniformState().has_value());
+      } else {
+        EXPECT_EQ(m.uniformState(), State::Transparent);
+      }
+    }
+  Micromap m(2, Format::FourState, State::UnknownOpaque);
+  m.set(4, State::UnknownTransparent);
+  m.set(5, State::Opaque);
+  const Micromap two = m.toTwoStateMap();
+  EXPECT_EQ(two.format(), Format::TwoState);
+  EXPECT_EQ(two.get(0), State::Opaque);
+  EXPECT_EQ(two.get(4), State::Transparent);
+  EXPECT_EQ(two.get(5), State::Opaque);
+  EXPECT_EQ(toTwoState(State::UnknownTransparent), State::Transparent);
+  EXPECT_EQ(toTwoState(State::UnknownOpaque), State::Opaque);
+}
+
+TEST(Micromap, GetSetByBarycentrics) {
+  Micromap m(2, Format::FourState);
+  m.setUV(0.5f, 0.25f, State::UnknownOpaque);
+  EXPECT_EQ(m.get(11), State::UnknownOpaque);
+  EXPECT_EQ(m.getUV(0.55f, 0.27f), State::UnknownOpaque);
+}
+
+TEST(OmmArray, DedupSpecialIndicesAndBytes) {
+  OmmArrayBuilder b;
+  Micromap a(1, Format::FourState);
+  a.set(0, State::Opaque);  // states 1,0,0,0 → byte 0x01
+  Micromap c(1, Format::TwoState);
+  c.set(2, State::Opaque);  // byte 0x04
+  EXPECT_EQ(b.add(Micromap(3, Format::FourState, State::Opaque)), -2);
+  EXPECT_EQ(b.add(a), 0);
+  EXPECT_EQ(b.add(Micromap(0, Format::TwoState, State::Transparent)), -1);
+  EXPECT_EQ(b.add(c), 1);
+  EXPECT_EQ(b.add(a), 0);  // identical → stored once
+  EXPECT_EQ(b.add(Micromap(2, Format::FourState, State::UnknownTransparent)), -3);
+  EXPECT_EQ(b.add(Micromap(2, Format::FourState, State::UnknownOpaque)), -4);
+  const OmmArray arr = b.finish();
+  EXPECT_EQ(arr.data, (std::vector<uint8_t>{0x01, 0x04}));
+  ASSERT_EQ(arr.descriptors.size(), 2u);
+  EXPECT_EQ(arr.descriptors[0], (TriangleDescriptor{0, 1, 2}));
+  EXPECT_EQ(arr.descriptors[1], (TriangleDescriptor{1, 1, 1}));
+  EXPECT_EQ(arr.indices, (std::vector<int32_t>{-2, 0, -1, 1, 0, -3, -4}));
+  EXPECT_EQ(arr.indexType(), IndexType::UInt16);
+  EXPECT_EQ(arr.indexBufferBytes(), (std::vector<uint8_t>{0xfe, 0xff, 0x00, 0x00, 0xff, 0xff, 0x01, 0x00, 0x00,
+                                                          0x00, 0xfd, 0xff, 0xfc, 0xff}));
+  EXPECT_EQ(arr.descriptorBytes(),
+            (std::vector<uint8_t>{0, 0, 0, 0, 1, 0, 2, 0, 1, 0, 0, 0, 1, 0, 1, 0}));
+  ASSERT_EQ(arr.histogram.size(), 2u);
+  EXPECT_EQ(arr.histogram[0], (UsageCount{1, 1, 1}));
+  EXPECT_EQ(arr.histogram[1], (UsageCount{1, 1, 2}));
+  EXPECT_EQ(arr.triangleHistogram[1], (UsageCount{2, 1, 2}));
+  EXPECT_EQ(arr.state(0, 3), State::Opaque);
+  EXPECT_EQ(arr.state(1, 0), State::Opaque);
+  EXPECT_EQ(arr.state(1, 1), State::Transparent);
+  EXPECT_EQ(arr.state(3, 2), State::Opaque);
+  EXPECT_EQ(arr.state(5, 0), State::UnknownTransparent);
+  EXPECT_EQ(arr.stateUV(1, 0.1f, 0.1f), State::Opaque);
+}
+
+TEST(OmmArray, WideIndicesWhenDescriptorsExceed16Bits) {
+  OmmArrayBuilder b;
+  for (uint32_t i = 0; i < 70000; ++i) {
+    Micromap m(4, Format::TwoState);
+    for (uint32_t bit = 0; bit < 17; ++bit)
+      if ((i >> bit) & 1u) m.set(bit, State::Opaque);
+    m.set(200, State::Opaque);  // never uniform
+    ASSERT_EQ(b.add(m), int32_t(i));
+  }
+  b.addSpecial(State::Opaque);
+  const OmmArray arr = b.finish();
+  EXPECT_EQ(arr.indexType(), IndexType::UInt32);
+  const auto bytes = arr.indexBufferBytes();
+  ASSERT_EQ(bytes.size(), 70001u * 4);
+  EXPECT_EQ(bytes[4 * 69999 + 0], uint8_t(69999 & 0xff));
+  EXPECT_EQ(bytes[4 * 70000 + 3], 0xff);  // -2 as uint32 = 0xfffffffe
+  EXPECT_EQ(bytes[4 * 70000 + 0], 0xfe);
+  EXPECT_EQ(arr.data.size(), 70000u * 32);
+}
+
+}  // namespace
+}  // namespace somm

@@ -39,6 +39,7 @@ Result<Scene> loadScene(const std::string& path, const LoadOptions& options) {
   if (badPos || badUv)
     s.warnings.push_back(std::to_string(badPos) + " non-finite position and " + std::to_string(badUv) +
                          " non-finite texture coordinate components (NaN/inf)");
+  if (s.geometries.empty()) s.warnings.push_back("the scene has no geometry");
   return r;
 }
 

@@ -1,7 +1,7 @@
 // somm CLI — subcommand registry and shared helpers. Each cmd_*.cpp registers one subcommand:
 //   static const somm::cli::Registration reg("name", &setupFunction);
-// setupFunction adds a CLI11 subcommand to the root app and sets its callback, which returns the exit code
-// via somm::cli::setExitCode().
+// setupFunction adds a CLI11 subcommand to the root app and sets its callback, which returns the exit code via
+// somm::cli::setExitCode().
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -15,8 +15,8 @@ namespace somm::cli {
 
 // Documented exit codes.
 inline constexpr int kExitOk = 0;
-inline constexpr int kExitFailure = 1;  // the operation failed (I/O, corrupt or unsupported input file)
-inline constexpr int kExitUsage = 2;    // bad command line or malformed text input
+inline constexpr int kExitFailure = 1;   // the operation failed (I/O, corrupt or unsupported input file)
+inline constexpr int kExitUsage = 2;     // bad command line or malformed text input
 
 using SetupFn = void (*)(CLI::App& root);
 
@@ -39,10 +39,7 @@ class Output {
     if (buf_.size() >= (1 << 16)) flush();
   }
   void putUInt(uint64_t v);
-  void putChar(char c) {
-    buf_.push_back(c);
-    if (buf_.size() >= (1 << 16)) flush();
-  }
+  void putChar(char c) { buf_.push_back(c); if (buf_.size() >= (1 << 16)) flush(); }
   void flush();
 
  private:

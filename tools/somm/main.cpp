@@ -1,7 +1,4 @@
-#include <cerrno>
 #include <charconv>
-#include <cstdlib>
-#include <cstring>
 #include <vector>
 
 #include "command.h"
@@ -20,17 +17,12 @@ std::vector<Entry>& registry() {
 int g_exitCode = kExitOk;
 }  // namespace
 
-Registration::Registration(const char* name, SetupFn setup) {
-  registry().push_back({name, setup});
-}
+Registration::Registration(const char* name, SetupFn setup) { registry().push_back({name, setup}); }
 
-void setExitCode(int code) {
-  g_exitCode = code;
-}
+void setExitCode(int code) { g_exitCode = code; }
 
 void printError(std::string_view command, std::string_view message) {
-  std::fprintf(stderr, "somm %.*s: %.*s\n", int(command.size()), command.data(), int(message.size()),
-               message.data());
+  std::fprintf(stderr, "somm %.*s: %.*s\n", int(command.size()), command.data(), int(message.size()), message.data());
 }
 
 void Output::putUInt(uint64_t v) {
@@ -50,8 +42,7 @@ void Output::flush() {
 
 int main(int argc, char** argv) {
   using namespace somm::cli;
-  CLI::App app{"somm — Succinct Opacity MicroMaps: bake, compress, inspect and ray trace opacity micromaps",
-               "somm"};
+  CLI::App app{"somm — Succinct Opacity MicroMaps: bake, compress, inspect and ray trace opacity micromaps", "somm"};
   app.set_version_flag("--version", std::string("somm ") + SOMM_VERSION);
   app.require_subcommand(1);
   for (const auto& e : registry()) e.setup(app);

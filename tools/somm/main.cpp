@@ -56,6 +56,8 @@ int main(int argc, char** argv) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
     std::string msg = e.what();
+    // An unknown first word: say so instead of CLI11's "A subcommand is required".
+    if (app.get_subcommands().empty() && argc > 1 && argv[1][0] != '-') msg = "unknown command '" + excerpt(argv[1]) + "'";
     std::fprintf(stderr, "somm: %s\n", msg.c_str());
     std::fprintf(stderr, "Run with --help for more information.\n");
     return kExitUsage;

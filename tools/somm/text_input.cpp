@@ -75,4 +75,21 @@ bool parseUInt(std::string_view token, uint64_t& out) {
   return r.ec == std::errc() && r.ptr == token.data() + token.size();
 }
 
+std::string excerpt(std::string_view line, size_t max) {
+  std::string out;
+  static const char* const kHex = "0123456789abcdef";
+  for (size_t i = 0; i < line.size() && i < max; ++i) {
+    const unsigned char c = static_cast<unsigned char>(line[i]);
+    if (c >= 0x20 && c < 0x7f) {
+      out.push_back(char(c));
+    } else {
+      out += "\\x";
+      out.push_back(kHex[c >> 4]);
+      out.push_back(kHex[c & 15]);
+    }
+  }
+  if (line.size() > max) out += "...";
+  return out;
+}
+
 }  // namespace somm::cli

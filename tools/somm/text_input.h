@@ -31,6 +31,10 @@ std::string_view nextToken(std::string_view& rest);
 // Parses a whole token as a float exactly as strtof does (decimal, hex floats, inf, nan). False if malformed
 // or if anything is left over.
 bool parseFloat(std::string_view token, float& out);
+// The start of an input line for an error message: at most `max` bytes, non-printable bytes as \xNN (so a
+// message stays one printable line whatever the input holds), "..." when cut.
+std::string excerpt(std::string_view line, size_t max = 80);
+
 // Parses a whole token as an unsigned decimal integer that fits in uint64.
 bool parseUInt(std::string_view token, uint64_t& out);
 

@@ -29,9 +29,9 @@ struct Material {
   bool doubleSided = false;
   std::array<float, 4> baseColorFactor{1, 1, 1, 1};
   // Alpha used by the alpha test: alpha texture × constant factor already multiplied in. Null when the alpha
-  // is the constant baseColorFactor[3] alone.
+  // is the constant baseColorFactor[3] alone. Loaders set it for alpha-tested materials only.
   std::shared_ptr<const AlphaTexture> alpha;
-  std::shared_ptr<const ColorImage> baseColor;  // may be null
+  std::shared_ptr<const ColorImage> baseColor;  // may be null; as stored (baseColorFactor not applied)
   Sampler sampler;                              // of the alpha (base colour) texture
   std::string alphaSource;                      // path of the image the alpha comes from, for messages
 

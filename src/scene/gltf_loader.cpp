@@ -4,6 +4,7 @@
 #include <tiny_gltf.h>
 
 #include <algorithm>
+#include <cfloat>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -21,6 +22,13 @@ namespace {
 using Mat4 = std::array<double, 16>;  // column-major
 
 constexpr Mat4 kIdentity{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+
+// double → float without undefined behaviour for values beyond the float range (they become ±inf).
+float narrow(double v) {
+  if (v > double(FLT_MAX)) return INFINITY;
+  if (v < -double(FLT_MAX)) return -INFINITY;
+  return float(v);
+}
 
 Mat4 mul(const Mat4& a, const Mat4& b) {
   Mat4 c{};
@@ -195,7 +203,9 @@ Result<AccessorView> GltfLoader::view(int index, const std::string& what, int ex
   v.normalized = a.normalized;
   const size_t elem = size_t(compSize) * size_t(comps);
   if (a.bufferView < 0) {
-    if (a.count > (size_t(1) << 31)) return fail(ErrorCode::LimitExceeded, name + ": too many elements");
+    // No data in the file: cap the count so that a few bytes of JSON cannot demand gigabytes.
+    if (a.count > (size_t(1) << 24))
+      return fail(ErrorCode::LimitExceeded, name + ": too many elements without data");
     return v;  // all zeros
   }
   if (size_t(a.bufferView) >= model_.bufferViews.size())
@@ -273,8 +283,16 @@ Status GltfLoader::loadMaterials() {
     m.name = gm.name.empty() ? "material" + std::to_string(i) : gm.name;
     m.doubleSided = gm.doubleSided;
     const auto& f = gm.pbrMetallicRoughness.baseColorFactor;
-    if (f.size() == 4)
-      for (int c = 0; c < 4; ++c) m.baseColorFactor[size_t(c)] = float(f[size_t(c)]);
+    auto finiteFloat = [](double v) { return std::isfinite(v) && std::abs(v) <= double(FLT_MAX); };
+    if (f.size() == 4) {
+      for (int c = 0; c < 4; ++c) {
+        if (!finiteFloat(f[size_t(c)]))
+          return fail(ErrorCode::CorruptFile, "material '" + m.name + "': invalid baseColorFactor");
+        m.baseColorFactor[size_t(c)] = float(f[size_t(c)]);
+      }
+    }
+    if (!finiteFloat(gm.alphaCutoff) || gm.alphaCutoff < 0)
+      return fail(ErrorCode::CorruptFile, "material '" + m.name + "': invalid alphaCutoff");
     m.alphaCutoff = float(gm.alphaCutoff);
     if (gm.alphaMode == "MASK") {
       m.alphaMode = AlphaMode::Mask;
@@ -293,8 +311,6 @@ Status GltfLoader::loadMaterials() {
       scene_.warnings.push_back("material '" + m.name + "': unknown alphaMode '" + gm.alphaMode +
                                 "', treated as OPAQUE");
     }
-    if (!(m.alphaCutoff >= 0.0f) || !std::isfinite(m.alphaCutoff))
-      return fail(ErrorCode::CorruptFile, "material '" + m.name + "': invalid alphaCutoff");
 
     MatInfo info;
     const tinygltf::TextureInfo& ti = gm.pbrMetallicRoughness.baseColorTexture;
@@ -424,7 +440,7 @@ Status GltfLoader::loadGeometries() {
       if (n > 0xFFFFFFFFu) return fail(ErrorCode::LimitExceeded, what + ": too many vertices");
       g.positions.resize(n * 3);
       for (size_t i = 0; i < n; ++i)
-        for (int c = 0; c < 3; ++c) g.positions[i * 3 + size_t(c)] = float(pos->component(i, c));
+        for (int c = 0; c < 3; ++c) g.positions[i * 3 + size_t(c)] = narrow(pos->component(i, c));
 
       const MatInfo& info = matInfo_[g.material];
       g.uvs.assign(n * 2, 0.0f);
@@ -443,7 +459,7 @@ Status GltfLoader::loadGeometries() {
             const double v2 = info.m[3] * u + info.m[4] * v + info.m[5];
             u = u2, v = v2;
           }
-          g.uvs[i * 2] = float(u), g.uvs[i * 2 + 1] = float(v);
+          g.uvs[i * 2] = narrow(u), g.uvs[i * 2 + 1] = narrow(v);
         }
       } else if (info.alphaFromTexture) {
         scene_.warnings.push_back(what + ": no " + uvName + " for its alpha texture; UVs set to 0");
@@ -529,7 +545,7 @@ Status GltfLoader::loadInstances() {
         for (size_t p = 0; p < prims; ++p) {
           Instance inst;
           inst.geometry = firstGeometry_[size_t(n.mesh)] + uint32_t(p);
-          for (int k = 0; k < 16; ++k) inst.transform[size_t(k)] = float(world[size_t(k)]);
+          for (int k = 0; k < 16; ++k) inst.transform[size_t(k)] = narrow(world[size_t(k)]);
           scene_.instances.push_back(inst);
         }
       }
@@ -544,11 +560,11 @@ Status GltfLoader::loadInstances() {
         double ux = world[4], uy = world[5], uz = world[6];
         const double ul = std::sqrt(ux * ux + uy * uy + uz * uz);
         if (ul > 0) ux /= ul, uy /= ul, uz /= ul;
-        cam.eye = {float(ex), float(ey), float(ez)};
-        cam.target = {float(ex + fx), float(ey + fy), float(ez + fz)};
-        cam.up = {float(ux), float(uy), float(uz)};
+        cam.eye = {narrow(ex), narrow(ey), narrow(ez)};
+        cam.target = {narrow(ex + fx), narrow(ey + fy), narrow(ez + fz)};
+        cam.up = {narrow(ux), narrow(uy), narrow(uz)};
         if (gc.type == "perspective" && gc.perspective.yfov > 0)
-          cam.yfovRadians = float(gc.perspective.yfov);
+          cam.yfovRadians = narrow(gc.perspective.yfov);
         else
           scene_.warnings.push_back("camera " + std::to_string(n.camera) +
                                     " is not a perspective camera; default field of view used");

@@ -450,6 +450,16 @@ TEST(Gltf, MalformedFilesGiveErrors) {
       {"view offset past end", [](GltfBuilder& b) { b.j["bufferViews"][1]["byteOffset"] = 1u << 30; }},
       {"accessor count", [](GltfBuilder& b) { b.j["accessors"][0]["count"] = 1000; }},
       {"accessor huge count", [](GltfBuilder& b) { b.j["accessors"][1]["count"] = 1ull << 62; }},
+      {"dataless huge accessor",
+       [](GltfBuilder& b) {
+         b.j["accessors"][0].erase("bufferView");
+         b.j["accessors"][0]["count"] = 1u << 30;
+       }},
+      {"negative cutoff", [](GltfBuilder& b) { b.j["materials"][0]["alphaCutoff"] = -0.5; }},
+      {"infinite factor",
+       [](GltfBuilder& b) {
+         b.j["materials"][0]["pbrMetallicRoughness"]["baseColorFactor"] = {1, 1, 1, 1e300};
+       }},
       {"accessor offset", [](GltfBuilder& b) { b.j["accessors"][2]["byteOffset"] = 2; }},
       {"accessor missing view", [](GltfBuilder& b) { b.j["accessors"][0]["bufferView"] = 17; }},
       {"missing accessor", [](GltfBuilder& b) { b.j["meshes"][0]["primitives"][0]["indices"] = 99; }},

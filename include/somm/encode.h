@@ -20,6 +20,7 @@
 // buffer ends with kTailPadding zero bytes so that every such load stays inside it.
 #pragma once
 
+#include <array>
 #include <bit>
 #include <cstdint>
 #include <cstring>
@@ -106,6 +107,25 @@ constexpr uint64_t rankMapBytes(uint32_t level, Format f, const TreeShape& s) no
 }
 
 // ---- bit access (little-endian, LSB-first) ----
+// Population count without a library call: the popcnt instruction when the build targets it (-mpopcnt,
+// -march=x86-64-v2 or later), otherwise SWAR (std::popcount would call libgcc's __popcountdi2 on baseline
+// x86-64).
+inline uint32_t popcount64(uint64_t x) noexcept {
+#if defined(__POPCNT__) || !(defined(__x86_64__) || defined(__i386__))
+  return uint32_t(std::popcount(x));
+#else
+  x = x - ((x >> 1) & 0x5555555555555555ull);
+  x = (x & 0x3333333333333333ull) + ((x >> 2) & 0x3333333333333333ull);
+  x = (x + (x >> 4)) & 0x0f0f0f0f0f0f0f0full;
+  return uint32_t((x * 0x0101010101010101ull) >> 56);
+#endif
+}
+inline constexpr auto kBytePopcount = [] {
+  std::array<uint8_t, 256> t{};
+  for (int b = 0; b < 256; ++b) t[size_t(b)] = uint8_t(std::popcount(uint32_t(b)));
+  return t;
+}();
+
 inline uint64_t load64(const uint8_t* p) noexcept {
   uint64_t w;
   std::memcpy(&w, p, 8);
@@ -152,9 +172,28 @@ inline State dfsState(const uint8_t* blob, uint32_t level, Format f, uint32_t in
   return getValue(t, 4 * internal + 1, f, leaf);
 }
 
-// Same bits; the skip consumes the rest of a 64-bit word (then of a byte) at once with popcount whenever the
-// pending count guarantees the skip does not end inside it (each bit lowers the pending count by at most
-// one).
+// For the word-at-a-time skip: kSkipEnd[n-1][b] is the bit (1..8) of byte b (LSB first) at which a pending
+// count of n (1..8) reaches zero — each 1 adds three, each 0 removes one — or 0 if it stays positive over all
+// 8 bits. A count above 8 cannot reach zero within a byte.
+inline constexpr auto kSkipEnd = [] {
+  std::array<std::array<uint8_t, 256>, 8> t{};
+  for (int n = 1; n <= 8; ++n)
+    for (int b = 0; b < 256; ++b) {
+      int need = n;
+      for (int i = 0; i < 8; ++i) {
+        need += ((b >> i) & 1) ? 3 : -1;
+        if (need == 0) {
+          t[size_t(n - 1)][size_t(b)] = uint8_t(i + 1);
+          break;
+        }
+      }
+    }
+  return t;
+}();
+
+// Same bits; bit steps up to a byte boundary, then a whole 64-bit word at once (popcount) at word boundaries
+// when the pending count exceeds the word's zeros — each 0 lowers the count by one, so it cannot reach zero
+// inside — and otherwise a byte at a time (kSkipEnd finds where the skip ends inside the last byte).
 inline State dfsFastState(const uint8_t* blob, uint32_t level, Format f, uint32_t index) noexcept {
   const uint32_t w = countFieldBits(level);
   const uint64_t internal = w ? getBits(blob, 0, w) : 0;
@@ -164,27 +203,34 @@ inline State dfsFastState(const uint8_t* blob, uint32_t level, Format f, uint32_
     if (!getBit(t, pos)) break;
     ++pos;
     uint64_t need = digitAt(index, level, d);
-    while (need != 0) {
-      const uint32_t r = 64u - uint32_t(pos & 63u);
-      if (need >= r) {
-        const uint64_t word = load64(t + ((pos >> 6) << 3)) >> (pos & 63u);
-        const uint32_t p = uint32_t(std::popcount(word));
-        need = need + 4 * p - r;
-        leaf += r - p;
-        pos += r;
-        continue;
-      }
-      const uint32_t r8 = 8u - uint32_t(pos & 7u);
-      if (need >= r8) {
-        const uint32_t p = uint32_t(std::popcount(uint32_t(t[pos >> 3] >> (pos & 7u))));
-        need = need + 4 * p - r8;
-        leaf += r8 - p;
-        pos += r8;
-        continue;
-      }
+    while (need != 0 && (pos & 7u) != 0) {
       const uint32_t b = getBit(t, pos++);
       need = need - 1 + 4 * b;
       leaf += 1 - b;
+    }
+    while (need != 0) {
+      if ((pos & 63u) == 0) {
+        const uint32_t ones = popcount64(load64(t + (pos >> 3)));
+        if (need > 64u - ones) {
+          need = need + 4 * ones - 64;
+          leaf += 64 - ones;
+          pos += 64;
+          continue;
+        }
+      }
+      const uint32_t byte = t[pos >> 3];
+      if (need <= 8) {
+        const uint32_t end = kSkipEnd[need - 1][byte];
+        if (end != 0) {
+          leaf += end - kBytePopcount[byte & ((1u << end) - 1u)];
+          pos += end;
+          break;
+        }
+      }
+      const uint32_t p = kBytePopcount[byte];
+      need = need + 4 * p - 8;
+      leaf += 8 - p;
+      pos += 8;
     }
   }
   return getValue(t, 4 * internal + 1, f, leaf);
@@ -205,11 +251,11 @@ inline State rankState(const uint8_t* blob, uint32_t level, Format f, uint32_t i
     const uint64_t wordIndex = x >> 6;
     const uint64_t word = load64(fl + (wordIndex << 3));
     const uint32_t sh = uint32_t(x & 63u);
-    uint64_t r = uint64_t(std::popcount(word & ((uint64_t(1) << sh) - 1u)));
+    uint64_t r = popcount64(word & ((uint64_t(1) << sh) - 1u));
     const uint64_t block = x / kRankBlockBits;
     if (block != 0) r += getBits(fl, nf + cw * (block - 1), cw);
     for (uint64_t k = block * (kRankBlockBits / 64); k < wordIndex; ++k)
-      r += uint64_t(std::popcount(load64(fl + (k << 3))));
+      r += popcount64(load64(fl + (k << 3)));
     if (!((word >> sh) & 1u)) return getValue(fl, valueBase, f, x - r);
     x = 1 + 4 * r + digitAt(index, level, d);
   }

@@ -71,24 +71,35 @@ constexpr uint8_t kMixed = 0xff;
 
 class BitWriter {
  public:
+  // Appends the low n (<= 64) bits of value, LSB first.
   void put(uint64_t value, uint32_t n) {
-    for (uint32_t i = 0; i < n; ++i) putBit(uint32_t(value >> i) & 1u);
+    if (n == 0) return;
+    if (n < 64) value &= (uint64_t(1) << n) - 1u;
+    const uint32_t used = uint32_t(bits_ & 63u);
+    if (used == 0) words_.push_back(0);
+    words_.back() |= value << used;
+    if (used + n > 64) words_.push_back(value >> (64 - used));
+    bits_ += n;
   }
-  void putBit(uint32_t b) {
-    if ((bits_ & 7u) == 0) bytes_.push_back(0);
-    if (b) bytes_.back() = uint8_t(bytes_.back() | (1u << (bits_ & 7u)));
-    ++bits_;
+  void putBit(uint32_t b) { put(b, 1); }
+  void padToByte() {
+    const uint64_t pad = (8 - (bits_ & 7u)) & 7u;
+    put(0, uint32_t(pad));
   }
-  void padToByte() { bits_ = (bits_ + 7) & ~uint64_t(7); }
   void append(const BitWriter& o) {
-    for (uint64_t i = 0; i < o.bits_; ++i) putBit(getBit(o.bytes_.data(), i));
+    for (uint64_t i = 0; i < o.bits_; i += 64)
+      put(o.words_[i >> 6], uint32_t(std::min<uint64_t>(64, o.bits_ - i)));
   }
   uint64_t bits() const { return bits_; }
-  std::vector<uint8_t>& bytes() { return bytes_; }
-  const std::vector<uint8_t>& bytes() const { return bytes_; }
+  uint32_t bit(uint64_t i) const { return uint32_t(words_[i >> 6] >> (i & 63u)) & 1u; }
+  std::vector<uint8_t> bytes() const {
+    std::vector<uint8_t> out((bits_ + 7) / 8);
+    for (size_t i = 0; i < out.size(); ++i) out[i] = uint8_t(words_[i >> 3] >> (8 * (i & 7u)));
+    return out;
+  }
 
  private:
-  std::vector<uint8_t> bytes_;
+  std::vector<uint64_t> words_;
   uint64_t bits_ = 0;
 };
 
@@ -135,7 +146,7 @@ std::vector<uint8_t> encodeDfs(const Micromap& map) {
   emitDfs(vals, 0, 0, bps, t, v);
   out.append(t);
   out.append(v);
-  return std::move(out.bytes());
+  return out.bytes();
 }
 
 std::vector<uint8_t> encodeRank(const Micromap& map) {
@@ -170,12 +181,11 @@ std::vector<uint8_t> encodeRank(const Micromap& map) {
   const uint32_t cw = rankCounterBits(internal);
   uint64_t ones = 0;
   for (uint64_t b = 1; b <= rankDirectoryCounters(nf); ++b) {
-    for (uint64_t k = (b - 1) * kRankBlockBits; k < b * kRankBlockBits; ++k)
-      ones += getBit(flags.bytes().data(), k);
+    for (uint64_t k = (b - 1) * kRankBlockBits; k < b * kRankBlockBits; ++k) ones += flags.bit(k);
     out.put(ones, cw);
   }
   out.append(values);
-  return std::move(out.bytes());
+  return out.bytes();
 }
 
 void fillRange(Micromap& m, uint64_t start, uint64_t count, State s) {

@@ -11,13 +11,13 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <map>
 
 #include "trace_internal.h"
 
 namespace somm {
 
-// ---- small helpers
-// ---------------------------------------------------------------------------------------------------
+// ---- small helpers ----
 
 TraceCounters& TraceCounters::operator+=(const TraceCounters& o) noexcept {
   primaryRays += o.primaryRays;
@@ -105,8 +105,7 @@ Status writePng(const std::string& path, const Image& image) {
   return Ok{};
 }
 
-// ---- the world
-// -----------------------------------------------------------------------------------------------------
+// ---- the world ----
 
 namespace {
 
@@ -236,8 +235,7 @@ Camera TraceWorld::camera(const RenderSettings& settings) const {
   return cam;
 }
 
-// ---- filter functions
-// ----------------------------------------------------------------------------------------------
+// ---- filter functions ----
 
 namespace detail {
 
@@ -313,8 +311,7 @@ struct FlatOmmPolicy {
 
 }  // namespace detail
 
-// ---- tracers
-// -------------------------------------------------------------------------------------------------------
+// ---- tracers ----
 
 struct TracerFactory {
   // Builds the Embree scene: every flattened instance, filters on alpha-tested geometries when `filter` is
@@ -404,7 +401,19 @@ Result<std::unique_ptr<Tracer>> makeBitmaskTracer(std::shared_ptr<const TraceWor
     const size_t tris = gd.triUVs.size() / 6;
     auto& mask = store->masks[g];
     mask.assign(tris * bytesPerTriangle, 0);
-    tbb::parallel_for(size_t(0), tris, [&](size_t t) {
+    // Triangles with identical UVs get identical masks: build each distinct UV triangle's mask once, then
+    // copy.
+    std::map<std::array<float, 6>, size_t> first;
+    std::vector<size_t> source(tris), builds;
+    for (size_t t = 0; t < tris; ++t) {
+      std::array<float, 6> key;
+      std::copy_n(gd.triUVs.data() + 6 * t, 6, key.begin());
+      auto [it, fresh] = first.try_emplace(key, t);
+      if (fresh) builds.push_back(t);
+      source[t] = it->second;
+    }
+    tbb::parallel_for(size_t(0), builds.size(), [&](size_t b) {
+      const size_t t = builds[b];
       const float* uv = gd.triUVs.data() + 6 * t;
       uint8_t* m = mask.data() + t * bytesPerTriangle;
       const float inv = 1.0f / float(n);
@@ -414,12 +423,16 @@ Result<std::unique_ptr<Tracer>> makeBitmaskTracer(std::shared_ptr<const TraceWor
           // whole).
           const float us[4] = {iu * inv, (iu + 1) * inv, iu * inv, (iu + 1) * inv};
           const float vs[4] = {iv * inv, iv * inv, (iv + 1) * inv, (iv + 1) * inv};
-          const State s = classifyRegion(*gd.material, uv, us, vs, 4);
-          const uint32_t code = s == State::Transparent ? 0u : s == State::Opaque ? 1u : 2u;
+          const State st = classifyRegion(*gd.material, uv, us, vs, 4);
+          const uint32_t code = st == State::Transparent ? 0u : st == State::Opaque ? 1u : 2u;
           const uint32_t cell = iv * n + iu;
           m[cell >> 2] = uint8_t(m[cell >> 2] | (code << (2 * (cell & 3))));
         }
     });
+    for (size_t t = 0; t < tris; ++t)
+      if (source[t] != t)
+        std::copy_n(mask.data() + source[t] * bytesPerTriangle, bytesPerTriangle,
+                    mask.data() + t * bytesPerTriangle);
     bd.masks = mask.data();
     bytes += mask.size();
   }
@@ -510,8 +523,35 @@ Result<std::unique_ptr<Tracer>> makeStateOverlayTracer(std::shared_ptr<const Tra
   return makeFlat(std::move(world), std::move(arrays), Format::FourState, true);
 }
 
-// ---- rendering
-// -----------------------------------------------------------------------------------------------------
+Result<std::unique_ptr<Tracer>> makeTracer(std::shared_ptr<const TraceWorld> world, const MethodSpec& method,
+                                           const MicromapSet& micromaps) {
+  auto need = [&](const std::shared_ptr<const OmmArrays>& a) -> Status {
+    if (!a)
+      return makeError(ErrorCode::InvalidArgument,
+                       "method " + method.name() + ": no micromaps of that format");
+    return Ok{};
+  };
+  switch (method.kind) {
+    case MethodKind::Opaque:
+      return makeOpaqueTracer(std::move(world));
+    case MethodKind::Texture:
+      return makeTextureTracer(std::move(world));
+    case MethodKind::Bitmask:
+      return makeBitmaskTracer(std::move(world), micromaps.bitmaskLevel);
+    case MethodKind::StateOverlay:
+      if (Status s = need(micromaps.flat4); !s) return s.error();
+      return makeStateOverlayTracer(std::move(world), micromaps.flat4);
+    case MethodKind::Omm: {
+      const auto& arrays = method.format == Format::TwoState ? micromaps.flat2 : micromaps.flat4;
+      if (Status s = need(arrays); !s) return s.error();
+      if (method.encoding == "flat") return makeFlatOmmTracer(std::move(world), arrays, method.format);
+      return makeError(ErrorCode::InvalidArgument, "method " + method.name() + ": encoding not available");
+    }
+  }
+  return makeError(ErrorCode::InvalidArgument, "unknown method");
+}
+
+// ---- rendering ----
 
 namespace {
 

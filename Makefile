@@ -1,15 +1,16 @@
 # somm — top-level driver. Every target installs missing Debian packages first (we run as root on Debian bookworm).
 BUILD      ?= build
 ASAN_BUILD ?= build-asan
+FUZZ_BUILD ?= build-fuzz
 JOBS       ?= $(shell nproc)
 SECONDS    ?= 30
 CMAKE_GEN  := -G Ninja
 
 DEB_PKGS := cmake ninja-build g++ pkg-config libgtest-dev libgmock-dev libbenchmark-dev \
             libtinygltf-dev libtinyobjloader-dev libstb-dev libembree-dev libtbb-dev libcli11-dev \
-            nlohmann-json3-dev libxxhash-dev libzstd-dev liblzma-dev
+            nlohmann-json3-dev libxxhash-dev libzstd-dev liblzma-dev clang libclang-rt-14-dev
 
-.PHONY: all deps configure build test sanitize bench demo format clean
+.PHONY: all deps configure build test sanitize fuzz fuzz-build bench demo format clean
 
 all: build
 
@@ -40,6 +41,15 @@ sanitize: deps
 	cd $(ASAN_BUILD) && ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
 	  ctest --output-on-failure -j $(JOBS)
 
+# libFuzzer targets (clang, ASan+UBSan, separate build dir): each runs SECONDS seconds (docs/hardening.md).
+fuzz-build: deps
+	cmake -S . -B $(FUZZ_BUILD) $(CMAKE_GEN) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
+	  -DSOMM_FUZZ=ON -DSOMM_BUILD_TESTS=OFF -DSOMM_BUILD_BENCH=OFF -DSOMM_BUILD_TRACE=OFF
+	cmake --build $(FUZZ_BUILD) -j $(JOBS) --target somm_fuzzers
+
+fuzz: fuzz-build
+	bash fuzz/run.sh $(FUZZ_BUILD) $(SECONDS)
+
 bench: build
 	$(BUILD)/bench/somm_bench --benchmark_counters_tabular=true
 
@@ -51,4 +61,4 @@ format:
 	find include src tools tests bench fuzz -name '*.h' -o -name '*.cpp' | xargs clang-format -i
 
 clean:
-	rm -rf $(BUILD) $(ASAN_BUILD)
+	rm -rf $(BUILD) $(ASAN_BUILD) $(FUZZ_BUILD)

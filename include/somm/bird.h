@@ -78,11 +78,17 @@ uint32_t baryToIndexDescent(float u, float v, uint32_t level) noexcept;
 // The integer descent on its own: cell (iu, iv) of level `level`, `upper` = inverted triangle of the cell.
 uint32_t cellToIndexDescent(uint32_t iu, uint32_t iv, bool upper, uint32_t level) noexcept;
 
-// Batch form: out[i] = baryToIndex(u[i], v[i], level). Vectorised (AVX-512 / AVX2 / scalar chosen at run time);
-// identical results on every path.
+// Batch form: out[i] = baryToIndex(u[i], v[i], level). Vectorised for the best instruction set of this CPU (AVX-512,
+// AVX2, else baseline SSE2), chosen once at run time; identical results on every path.
 void baryToIndexBatch(const float* u, const float* v, size_t count, uint32_t level, uint32_t* out) noexcept;
 
-// Which instruction set baryToIndexBatch dispatches to on this CPU: "avx512", "avx2" or "scalar".
+// Instruction-set variants of the batch form, for tests and benchmarks. Scalar is the one-at-a-time loop.
+enum class BatchIsa : uint8_t { Scalar = 0, Sse2 = 1, Avx2 = 2, Avx512 = 3 };
+bool batchIsaSupported(BatchIsa isa) noexcept;
+void baryToIndexBatch(BatchIsa isa, const float* u, const float* v, size_t count, uint32_t level,
+                      uint32_t* out) noexcept;
+const char* batchIsaName(BatchIsa isa) noexcept;
+// Name of the variant baryToIndexBatch dispatches to on this CPU: "avx512", "avx2" or "sse2".
 const char* baryToIndexBatchIsa() noexcept;
 
 // Integer barycentric grid point (u, v) in units of 2^-level.

@@ -63,15 +63,11 @@ inline uint32_t spread16(uint32_t x) noexcept {
   return x;
 }
 
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__SANITIZE_ADDRESS__)
-#define SOMM_TARGET_CLONES __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
-#else
-#define SOMM_TARGET_CLONES
-#endif
-
-SOMM_TARGET_CLONES
-void batchKernel(const float* __restrict u, const float* __restrict v, size_t count, uint32_t level,
-                 uint32_t* __restrict out) noexcept {
+// The kernel body, inlined into one function per instruction set. Written branch-free in 32-bit lanes so that GCC
+// vectorises it (float→int32 conversion is exact here because the values lie in [0, 4096]).
+__attribute__((always_inline)) inline void batchKernel(const float* __restrict u, const float* __restrict v,
+                                                       size_t count, uint32_t level,
+                                                       uint32_t* __restrict out) noexcept {
   const uint32_t n = 1u << level;
   const float fn = float(n);
   const uint32_t mask = n - 1u;
@@ -87,12 +83,15 @@ void batchKernel(const float* __restrict u, const float* __restrict v, size_t co
     const int32_t sv = int32_t(fv);
     const float uf = fu - float(su);
     const float vf = fv - float(sv);
-    uint32_t iu = uint32_t(su), iv = uint32_t(sv);
-    iu = iu < mask ? iu : mask;
-    iv = iv < mask ? iv : mask;
-    const uint32_t iuv = iu + iv;
-    iu = iuv >= n ? mask - iv : iu;
-    const uint32_t upper = (uf + vf >= 1.0f) & (iuv < mask);
+    // Integer part as arithmetic instead of selects (the vectoriser's if-conversion is fragile):
+    // su, sv are in [0, n]; su >> level is 1 exactly when su == n.
+    uint32_t iu = uint32_t(su) - (uint32_t(su) >> level);
+    const uint32_t iv = uint32_t(sv) - (uint32_t(sv) >> level);
+    const uint32_t iuv = iu + iv;  // < 2n
+    const uint32_t outside = 0u - (iuv >> level);  // all ones when iuv >= n
+    iu -= (iuv - mask) & outside;
+    const uint32_t belowDiagonal = uint32_t(int32_t(iuv - mask) >> 31) & 1u;  // iuv < n - 1
+    const uint32_t upper = (uf + vf >= 1.0f ? 1u : 0u) & belowDiagonal;
     const uint32_t iw = ~(iu + iv + upper);
     const uint32_t b0 = ~(iu ^ iw) & mask;
     const uint32_t t = (iu ^ iv) & b0;
@@ -106,19 +105,71 @@ void batchKernel(const float* __restrict u, const float* __restrict v, size_t co
   }
 }
 
-}  // namespace
+void batchBaseline(const float* u, const float* v, size_t count, uint32_t level, uint32_t* out) noexcept {
+  batchKernel(u, v, count, level, out);  // SSE2 on x86-64
+}
 
-void baryToIndexBatch(const float* u, const float* v, size_t count, uint32_t level, uint32_t* out) noexcept {
+void batchScalar(const float* u, const float* v, size_t count, uint32_t level, uint32_t* out) noexcept {
+  for (size_t i = 0; i < count; ++i) out[i] = baryToIndex(u[i], v[i], level);
+}
+
+#if defined(__x86_64__) && defined(__GNUC__)
+#define SOMM_HAVE_X86_CLONES 1
+__attribute__((target("avx2,bmi,bmi2,popcnt"))) void batchAvx2(const float* u, const float* v, size_t count,
+                                                               uint32_t level, uint32_t* out) noexcept {
   batchKernel(u, v, count, level, out);
 }
-
-const char* baryToIndexBatchIsa() noexcept {
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__SANITIZE_ADDRESS__)
-  __builtin_cpu_init();
-  if (__builtin_cpu_supports("x86-64-v4")) return "avx512";
-  if (__builtin_cpu_supports("x86-64-v3")) return "avx2";
-#endif
-  return "scalar";
+__attribute__((target("avx512f,avx512vl,avx512bw,avx512dq,avx2,bmi,bmi2,popcnt"))) void batchAvx512(
+    const float* u, const float* v, size_t count, uint32_t level, uint32_t* out) noexcept {
+  batchKernel(u, v, count, level, out);
 }
+#endif
+
+BatchIsa detectIsa() noexcept {
+#ifdef SOMM_HAVE_X86_CLONES
+  __builtin_cpu_init();
+  if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512bw") &&
+      __builtin_cpu_supports("avx512dq"))
+    return BatchIsa::Avx512;
+  if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("bmi2")) return BatchIsa::Avx2;
+#endif
+  return BatchIsa::Sse2;
+}
+
+}  // namespace
+
+bool batchIsaSupported(BatchIsa isa) noexcept {
+  static const BatchIsa best = detectIsa();
+  return uint32_t(isa) <= uint32_t(best);
+}
+
+void baryToIndexBatch(BatchIsa isa, const float* u, const float* v, size_t count, uint32_t level,
+                      uint32_t* out) noexcept {
+  switch (isa) {
+#ifdef SOMM_HAVE_X86_CLONES
+    case BatchIsa::Avx512: batchAvx512(u, v, count, level, out); return;
+    case BatchIsa::Avx2: batchAvx2(u, v, count, level, out); return;
+#endif
+    case BatchIsa::Sse2: batchBaseline(u, v, count, level, out); return;
+    default: batchScalar(u, v, count, level, out); return;
+  }
+}
+
+void baryToIndexBatch(const float* u, const float* v, size_t count, uint32_t level, uint32_t* out) noexcept {
+  static const BatchIsa best = detectIsa();
+  baryToIndexBatch(best, u, v, count, level, out);
+}
+
+const char* batchIsaName(BatchIsa isa) noexcept {
+  switch (isa) {
+    case BatchIsa::Scalar: return "scalar";
+    case BatchIsa::Sse2: return "sse2";
+    case BatchIsa::Avx2: return "avx2";
+    case BatchIsa::Avx512: return "avx512";
+  }
+  return "?";
+}
+
+const char* baryToIndexBatchIsa() noexcept { return batchIsaName(detectIsa()); }
 
 }  // namespace somm

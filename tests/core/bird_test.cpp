@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <limits>
@@ -196,13 +197,29 @@ TEST(Bird, BatchMatchesScalarOnLongArrays) {
   }
   u[5] = std::numeric_limits<float>::quiet_NaN();
   v[6] = std::numeric_limits<float>::infinity();
-  std::vector<uint32_t> out(n);
-  for (uint32_t level = 0; level <= kMaxLevel; ++level) {
-    baryToIndexBatch(u.data(), v.data(), n, level, out.data());
-    for (size_t i = 0; i < n; ++i) ASSERT_EQ(out[i], BarycentricsToSpaceFillingCurveIndex(u[i], v[i], level));
+  // Special values across the vector lanes too.
+  const float specials[] = {0.f, -0.f, 1.f, 2.f, -1.f, std::numeric_limits<float>::infinity(),
+                            -std::numeric_limits<float>::infinity(), std::numeric_limits<float>::quiet_NaN(),
+                            std::numeric_limits<float>::denorm_min(), 0.5f, 0.25f, 0.75f};
+  for (size_t i = 0; i < 144; ++i) {
+    u[100 + i] = specials[i % 12];
+    v[100 + i] = specials[i / 12];
   }
-  const std::string isa = baryToIndexBatchIsa();
-  EXPECT_TRUE(isa == "avx512" || isa == "avx2" || isa == "scalar");
+  std::vector<uint32_t> out(n);
+  int variants = 0;
+  for (BatchIsa isa : {BatchIsa::Scalar, BatchIsa::Sse2, BatchIsa::Avx2, BatchIsa::Avx512}) {
+    if (!batchIsaSupported(isa)) continue;
+    ++variants;
+    for (uint32_t level = 0; level <= kMaxLevel; ++level) {
+      std::fill(out.begin(), out.end(), ~0u);
+      baryToIndexBatch(isa, u.data(), v.data(), n, level, out.data());
+      for (size_t i = 0; i < n; ++i)
+        ASSERT_EQ(out[i], BarycentricsToSpaceFillingCurveIndex(u[i], v[i], level)) << batchIsaName(isa);
+    }
+  }
+  EXPECT_GE(variants, 2);  // scalar and SSE2 exist everywhere on x86-64
+  baryToIndexBatch(u.data(), v.data(), n, 7, out.data());
+  for (size_t i = 0; i < n; ++i) ASSERT_EQ(out[i], BarycentricsToSpaceFillingCurveIndex(u[i], v[i], 7));
 }
 
 }  // namespace

@@ -41,7 +41,7 @@ int run(const Options& o) {
       drain();
       out.flush();
       printError("index", "stdin line " + std::to_string(in.lineNumber()) + ": expected two floats 'u v', got '" +
-                              std::string(line.substr(0, 80)) + "'");
+                              excerpt(line) + "'");
       return kExitUsage;
     }
     us.push_back(u);

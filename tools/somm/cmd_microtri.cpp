@@ -24,7 +24,7 @@ int run(const Options& o) {
     if (!nextToken(rest).empty() || !parseUInt(a, index)) {
       out.flush();
       printError("microtri", "stdin line " + std::to_string(in.lineNumber()) + ": expected one index, got '" +
-                                 std::string(line.substr(0, 80)) + "'");
+                                 excerpt(line) + "'");
       return kExitUsage;
     }
     if (index >= count) {

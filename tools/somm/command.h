@@ -9,6 +9,8 @@
 #include <string>
 #include <string_view>
 
+#include "text_input.h"
+
 namespace somm::cli {
 
 // Documented exit codes.
@@ -26,31 +28,6 @@ void setExitCode(int code);
 
 // Prints "somm <command>: <message>" on stderr, one line.
 void printError(std::string_view command, std::string_view message);
-
-// Reads a text stream line by line in large chunks (streams arbitrarily long inputs in constant memory).
-class LineReader {
- public:
-  explicit LineReader(std::FILE* f) : f_(f) {}
-  // Next line without its terminator ("\n" or "\r\n"); false at end of input.
-  bool next(std::string_view& line);
-  uint64_t lineNumber() const { return lineNo_; }
-
- private:
-  std::FILE* f_;
-  std::string buf_;
-  size_t pos_ = 0;
-  bool eof_ = false;
-  uint64_t lineNo_ = 0;
-};
-
-// Splits off the next whitespace-separated token; empty when none is left.
-std::string_view nextToken(std::string_view& rest);
-
-// Parses a whole token as a float exactly as strtof does (decimal, hex floats, inf, nan). False if malformed or if
-// anything is left over.
-bool parseFloat(std::string_view token, float& out);
-// Parses a whole token as an unsigned decimal integer that fits in uint64.
-bool parseUInt(std::string_view token, uint64_t& out);
 
 // Buffered stdout writer.
 class Output {

@@ -223,13 +223,26 @@ Result<std::shared_ptr<const TraceWorld>> TraceWorld::create(std::shared_ptr<con
 Camera TraceWorld::camera(const RenderSettings& settings) const {
   if (settings.camera) return *settings.camera;
   if (scene_->camera) return *scene_->camera;
+  // Frame the bounding box: the smallest distance along a fixed oblique direction at which all eight corners
+  // project inside the image (a little margin).
   const V3 c = mul(add(bounds_.lower, bounds_.upper), 0.5f);
-  const float radius = std::max(
-      1e-6f, 0.5f * std::sqrt(dot(sub(bounds_.upper, bounds_.lower), sub(bounds_.upper, bounds_.lower))));
   Camera cam;
   cam.yfovRadians = 0.8f;
-  const float dist = radius / std::sin(0.5f * cam.yfovRadians) * 1.02f;
-  cam.eye = add(c, mul(normalize({0.45f, 0.2f, 1.0f}), dist));
+  const V3 toCam = normalize({0.45f, 0.2f, 1.0f});
+  const V3 right = normalize(cross(mul(toCam, -1.0f), {0, 1, 0}));
+  const V3 up = cross(right, mul(toCam, -1.0f));
+  const float tanV = std::tan(0.5f * cam.yfovRadians);
+  const float tanH = tanV * float(std::max(1u, settings.width)) / float(std::max(1u, settings.height));
+  float dist = 1e-6f;
+  for (int k = 0; k < 8; ++k) {
+    const V3 corner{(k & 1) ? bounds_.upper[0] : bounds_.lower[0],
+                    (k & 2) ? bounds_.upper[1] : bounds_.lower[1],
+                    (k & 4) ? bounds_.upper[2] : bounds_.lower[2]};
+    const V3 o = sub(corner, c);
+    dist = std::max(dist,
+                    dot(o, toCam) + std::max(std::fabs(dot(o, right)) / tanH, std::fabs(dot(o, up)) / tanV));
+  }
+  cam.eye = add(c, mul(toCam, dist));
   cam.target = c;
   cam.up = {0, 1, 0};
   return cam;

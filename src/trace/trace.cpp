@@ -15,6 +15,13 @@
 
 #include "trace_internal.h"
 
+#if __has_include("somm/encode.h")
+#include "somm/encode.h"
+#define SOMM_TRACE_HAS_ENCODINGS 1
+#else
+#define SOMM_TRACE_HAS_ENCODINGS 0
+#endif
+
 namespace somm {
 
 // ---- small helpers ----
@@ -322,6 +329,31 @@ struct FlatOmmPolicy {
   }
 };
 
+#if SOMM_TRACE_HAS_ENCODINGS
+struct EncodedOmmData {
+  const GeometryData* geometry = nullptr;
+  const EncodedArray* array = nullptr;
+};
+
+// Compressed micromaps: the encoding's own inline lookup, fixed at compile time.
+template <Encoding E, bool FourState>
+struct EncodedOmmPolicy {
+  using Data = EncodedOmmData;
+  static bool accept(const Data& d, uint32_t prim, float u, float v, TraceCounters& c) noexcept {
+    ++c.micromapLookups;
+    const State s = d.array->template stateUVAs<E>(prim, u, v);
+    if constexpr (!FourState) {
+      return (uint8_t(s) & 1u) != 0;
+    } else {
+      if (s == State::Opaque) return true;
+      if (s == State::Transparent) return false;
+      ++c.textureTests;
+      return textureTest(*d.geometry, prim, u, v);
+    }
+  }
+};
+#endif
+
 }  // namespace detail
 
 // ---- tracers ----
@@ -536,6 +568,55 @@ Result<std::unique_ptr<Tracer>> makeStateOverlayTracer(std::shared_ptr<const Tra
   return makeFlat(std::move(world), std::move(arrays), Format::FourState, true);
 }
 
+#if SOMM_TRACE_HAS_ENCODINGS
+namespace {
+
+template <Encoding E>
+RTCFilterFunctionN encodedFilter(Format format) {
+  return format == Format::TwoState ? &detail::filterFunction<detail::EncodedOmmPolicy<E, false>>
+                                    : &detail::filterFunction<detail::EncodedOmmPolicy<E, true>>;
+}
+
+Result<std::unique_ptr<Tracer>> makeEncoded(std::shared_ptr<const TraceWorld> world,
+                                            std::shared_ptr<const OmmArrays> arrays, Format format,
+                                            Encoding encoding) {
+  if (Status s = checkArrays(*world, *arrays); !s) return s.error();
+  const auto& geoms = world->impl().geometries;
+  struct Store {
+    std::vector<EncodedArray> arrays;
+    std::vector<detail::EncodedOmmData> data;
+  };
+  auto store = std::make_shared<Store>();
+  store->arrays.resize(geoms.size());
+  store->data.resize(geoms.size());
+  uint64_t bytes = 0;
+  for (size_t g = 0; g < geoms.size(); ++g) {
+    detail::EncodedOmmData& d = store->data[g];
+    d.geometry = &geoms[g];
+    if (!geoms[g].alphaTested) continue;
+    auto built = EncodedArray::build((*arrays)[g], encoding);
+    if (!built) return built.error();
+    store->arrays[g] = std::move(built).value();
+    d.array = &store->arrays[g];
+    bytes += store->arrays[g].byteSize();
+  }
+  std::vector<void*> user;
+  for (auto& d : store->data) user.push_back(&d);
+  RTCFilterFunctionN f = nullptr;
+  switch (encoding) {
+    case Encoding::Flat: f = encodedFilter<Encoding::Flat>(format); break;
+    case Encoding::Dfs: f = encodedFilter<Encoding::Dfs>(format); break;
+    case Encoding::DfsFast: f = encodedFilter<Encoding::DfsFast>(format); break;
+    case Encoding::Rank: f = encodedFilter<Encoding::Rank>(format); break;
+    case Encoding::Hybrid: f = encodedFilter<Encoding::Hybrid>(format); break;
+  }
+  const std::string name = std::string(format == Format::TwoState ? "omm2-" : "omm4-") + encodingName(encoding);
+  return TracerFactory::build(std::move(world), name, bytes, f, std::move(user), store, MethodKind::Omm, nullptr);
+}
+
+}  // namespace
+#endif
+
 Result<std::unique_ptr<Tracer>> makeTracer(std::shared_ptr<const TraceWorld> world, const MethodSpec& method,
                                            const MicromapSet& micromaps) {
   auto need = [&](const std::shared_ptr<const OmmArrays>& a) -> Status {
@@ -558,6 +639,9 @@ Result<std::unique_ptr<Tracer>> makeTracer(std::shared_ptr<const TraceWorld> wor
       const auto& arrays = method.format == Format::TwoState ? micromaps.flat2 : micromaps.flat4;
       if (Status s = need(arrays); !s) return s.error();
       if (method.encoding == "flat") return makeFlatOmmTracer(std::move(world), arrays, method.format);
+#if SOMM_TRACE_HAS_ENCODINGS
+      if (auto e = parseEncodingName(method.encoding)) return makeEncoded(std::move(world), arrays, method.format, *e);
+#endif
       return makeError(ErrorCode::InvalidArgument, "method " + method.name() + ": encoding not available");
     }
   }

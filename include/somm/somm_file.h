@@ -1,0 +1,94 @@
+// somm — the .somm container: the baked OMM arrays of a scene, their metadata and further encodings, every
+// section checksummed (XXH3-64), written atomically. Byte layout: docs/somm-format.md.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "somm/micromap.h"
+#include "somm/omm_array.h"
+#include "somm/result.h"
+#include "somm/texture.h"
+
+namespace somm {
+
+inline constexpr uint32_t kSommFileVersion = 1;
+
+// Four ASCII characters packed little-endian: sectionId("dfs ") == 'd' | 'f' << 8 | 's' << 16 | ' ' << 24.
+constexpr uint32_t sectionId(const char (&s)[5]) noexcept {
+  return uint32_t(uint8_t(s[0])) | uint32_t(uint8_t(s[1])) << 8 | uint32_t(uint8_t(s[2])) << 16 |
+         uint32_t(uint8_t(s[3])) << 24;
+}
+// The id as text with trailing spaces trimmed ("dfs "), non-printable bytes as \xNN.
+std::string sectionIdName(uint32_t id);
+
+// An encoding of one geometry's micromaps besides the flat spec buffers (dfs, rank, ...). Stored and
+// checksummed opaquely; ids must be unique within a geometry.
+struct EncodedSection {
+  uint32_t id = 0;
+  std::vector<uint8_t> bytes;
+  friend bool operator==(const EncodedSection&, const EncodedSection&) = default;
+};
+
+// What the baker measured. Stored as is (never timings: a file is identical for any thread count).
+struct GeometryBakeStats {
+  uint64_t microTriangles = 0;  // micro-triangles classified (Σ 4^level over the geometry's triangles)
+  uint64_t unknownMicroTriangles =
+      0;                            // of which the classification left unknown (before any 2-state demotion)
+  uint64_t invalidUvTriangles = 0;  // triangles with NaN/inf UVs (classified unknown)
+  friend bool operator==(const GeometryBakeStats&, const GeometryBakeStats&) = default;
+};
+
+// Per-geometry metadata.
+struct GeometryInfo {
+  std::string name;
+  std::string material;
+  uint32_t triangleCount = 0;  // must equal flat.indices.size()
+  Format format = Format::FourState;
+  uint32_t minLevel = 0, maxLevel = 0;  // every descriptor's level lies in [minLevel, maxLevel] ⊆ [0, 12]
+  float cutoff = 0.5f;
+  Sampler sampler;  // filter and wrap modes used by the bake
+  GeometryBakeStats stats;
+  friend bool operator==(const GeometryInfo&, const GeometryInfo&) = default;
+};
+
+struct SommGeometry {
+  GeometryInfo info;
+  OmmArray flat;                      // the spec buffers (always present)
+  std::vector<EncodedSection> extra;  // further encodings, in file order
+};
+
+struct SommFile {
+  std::string sourcePath;   // the scene the bake read
+  std::string toolVersion;  // e.g. "somm 0.1.0"
+  std::vector<std::pair<std::string, std::string>>
+      bakeOptions;  // the options used, in order ("level" → "8", ...)
+  std::vector<SommGeometry> geometries;
+};
+
+// Checks an OmmArray's internal consistency: descriptor levels ≤ 12 and formats 1/2, every micromap inside
+// the data, indices < descriptor count or special, histograms equal to the ones recomputed from descriptors
+// and indices. `what` prefixes messages.
+Status validateOmmArray(const OmmArray& a, std::string_view what);
+
+// Serialises after validating (a written file always reads back). Deterministic: equal inputs give equal
+// bytes.
+Result<std::vector<uint8_t>> serializeSomm(const SommFile& file);
+// Parses and validates everything before allocating more than a small multiple of bytes.size(). `name` (the
+// path) starts every error message.
+Result<SommFile> parseSomm(std::span<const uint8_t> bytes, std::string_view name);
+
+Status writeSommFile(const std::string& path, const SommFile& file);
+Result<SommFile> readSommFile(const std::string& path);
+
+// Writes `bytes` to `path` atomically: a temporary file in the same directory, fsync, rename, fsync of the
+// directory. On failure the temporary file is removed and an existing `path` is left untouched.
+Status writeFileAtomically(const std::string& path, std::span<const uint8_t> bytes);
+// Reads a whole file (errors name the path).
+Result<std::vector<uint8_t>> readWholeFile(const std::string& path);
+
+}  // namespace somm

@@ -1,0 +1,184 @@
+// somm — CPU ray tracing with opacity micromaps on Embree 3: every any-hit method of the paper side by side.
+//
+// A TraceWorld is a loaded Scene flattened into world space (every instance's vertices transformed once) and
+// shared by all methods. A Tracer binds one any-hit method to the world: an Embree scene whose alpha-tested
+// geometries carry intersection and occlusion filter functions instantiated for that method (opaque
+// geometries carry none), so the hot path has no virtual call, no allocation and no method switch.
+// Tracer::render traces the fixed workload: primary rays from a camera through a fixed sample pattern
+// (identical rays for every method), one shadow ray per hit towards a directional light, diffuse shading with
+// the base colour texture.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "somm/micromap.h"
+#include "somm/omm_array.h"
+#include "somm/result.h"
+#include "somm/scene.h"
+
+namespace somm {
+
+// ---- methods
+// ------------------------------------------------------------------------------------------------------
+
+enum class MethodKind : uint8_t {
+  Opaque,   // no alpha test: the lower bound, wrong pixels
+  Texture,  // the alpha test itself (sampleAlpha + alphaTestPasses): the ground truth
+  Bitmask,  // Gruen, Benthin & Woop 2020: 2 bits per cell of a row-major N×N grid in (u, v), else texture
+  Omm,      // opacity micromap lookup: transparent reject, opaque accept, unknown → texture (4-state only)
+  StateOverlay,  // traced like omm4-flat; visible hits coloured by their micromap state
+};
+
+struct MethodSpec {
+  MethodKind kind = MethodKind::Texture;
+  Format format = Format::FourState;  // Omm only
+  std::string encoding = "flat";      // Omm only: flat, dfs, dfs-fast, rank, hybrid
+  std::string name() const;           // "texture", "omm4-rank", ...
+};
+
+// Parses "opaque", "texture", "bitmask", "state-overlay", "omm2-<encoding>", "omm4-<encoding>".
+Result<MethodSpec> parseMethod(std::string_view name);
+
+// The encodings this build can trace (flat plus whatever compressed encodings are compiled in).
+std::vector<std::string> traceEncodings();
+
+// ---- workload
+// ------------------------------------------------------------------------------------------------------
+
+struct RenderSettings {
+  uint32_t width = 640, height = 480;
+  uint32_t spp = 1;      // samples per pixel, fixed pattern (pixel centre first)
+  uint32_t threads = 0;  // 0: all hardware threads
+  std::optional<Camera>
+      camera;  // overrides the scene camera; without either the view is framed automatically
+  std::array<float, 3> lightDirection{0.35f, 0.85f, 0.4f};  // towards the light (normalised internally)
+  bool shadows = true;
+};
+
+struct TraceCounters {
+  uint64_t primaryRays = 0, shadowRays = 0;
+  uint64_t filterCalls = 0;      // filter function invocations (per ray and candidate hit)
+  uint64_t textureTests = 0;     // alpha texture evaluations
+  uint64_t micromapLookups = 0;  // micromap / bitmask state reads
+  uint64_t rays() const noexcept { return primaryRays + shadowRays; }
+  TraceCounters& operator+=(const TraceCounters& o) noexcept;
+  friend bool operator==(const TraceCounters&, const TraceCounters&) = default;
+};
+
+// 8-bit RGBA, row 0 at the top.
+struct Image {
+  uint32_t width = 0, height = 0;
+  std::vector<uint8_t> rgba;
+};
+
+struct RenderResult {
+  Image image;
+  TraceCounters counters;
+  double seconds = 0;  // wall-clock time of the traced workload (rays + shading)
+  double raysPerSecond() const noexcept { return seconds > 0 ? double(counters.rays()) / seconds : 0.0; }
+};
+
+// Percentage of pixels whose RGBA differs (100 when the sizes differ).
+double percentPixelsDiffering(const Image& a, const Image& b) noexcept;
+
+// Writes an 8-bit RGBA PNG atomically (temp file + rename).
+Status writePng(const std::string& path, const Image& image);
+
+// ---- the world and the tracers
+// --------------------------------------------------------------------------------------
+
+struct Bounds {
+  std::array<float, 3> lower{0, 0, 0}, upper{0, 0, 0};
+};
+
+class TraceWorld {
+ public:
+  // Flattens `scene` (which must outlive the world) into world space and opens an Embree device.
+  static Result<std::shared_ptr<const TraceWorld>> create(std::shared_ptr<const Scene> scene);
+  ~TraceWorld();
+  TraceWorld(const TraceWorld&) = delete;
+  TraceWorld& operator=(const TraceWorld&) = delete;
+
+  const Scene& scene() const noexcept { return *scene_; }
+  const Bounds& bounds() const noexcept { return bounds_; }
+  // The camera used by render: settings override, else the scene's, else framed on the bounds.
+  Camera camera(const RenderSettings& settings) const;
+
+  struct Impl;
+  const Impl& impl() const noexcept { return *impl_; }
+
+ private:
+  TraceWorld() = default;
+  std::shared_ptr<const Scene> scene_;
+  Bounds bounds_;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Per-geometry micromaps for the Omm methods and state-overlay, indexed like Scene::geometries. Geometries
+// that are not alpha-tested are ignored (an empty OmmArray is fine for them).
+using OmmArrays = std::vector<OmmArray>;
+
+class Tracer {
+ public:
+  ~Tracer();
+  Tracer(const Tracer&) = delete;
+  Tracer& operator=(const Tracer&) = delete;
+
+  const std::string& method() const noexcept { return name_; }
+  // Bytes of micromap / bitmask data the filters read (data + descriptors + index buffer / masks), 0 for
+  // opaque/texture.
+  uint64_t micromapBytes() const noexcept { return bytes_; }
+  RenderResult render(const RenderSettings& settings) const;
+
+  struct Impl;
+
+ private:
+  friend struct TracerFactory;
+  Tracer() = default;
+  std::string name_;
+  uint64_t bytes_ = 0;
+  std::unique_ptr<Impl> impl_;
+};
+
+Result<std::unique_ptr<Tracer>> makeOpaqueTracer(std::shared_ptr<const TraceWorld> world);
+Result<std::unique_ptr<Tracer>> makeTextureTracer(std::shared_ptr<const TraceWorld> world);
+// Bitmask at grid resolution 2^level × 2^level (2 bits per cell), built with classifyRegion.
+Result<std::unique_ptr<Tracer>> makeBitmaskTracer(std::shared_ptr<const TraceWorld> world, uint32_t level);
+// Flat micromaps (the spec layout). `format` selects the method: TwoState never samples the texture (unknown
+// states are read through toTwoState), FourState tests the texture on unknown states.
+Result<std::unique_ptr<Tracer>> makeFlatOmmTracer(std::shared_ptr<const TraceWorld> world,
+                                                  std::shared_ptr<const OmmArrays> arrays, Format format);
+// Traced like omm4-flat; visible hits are coloured by the state their micromap gives them.
+Result<std::unique_ptr<Tracer>> makeStateOverlayTracer(std::shared_ptr<const TraceWorld> world,
+                                                       std::shared_ptr<const OmmArrays> arrays);
+
+// ---- conservative classification (bitmask build, and a simple stand-alone micromap bake)
+// ---------------------------
+
+// Classifies the region of a triangle given by barycentric points (u, v) (the closed convex hull of `count`
+// points, count <= 8) against the material's alpha test: Opaque / Transparent only if every hit a ray tracer
+// can report in the region — interpolated in float as the texture method does, with a safety margin — passes
+// / fails the test; else UnknownOpaque or UnknownTransparent (whichever the texels around the region's centre
+// favour).
+State classifyRegion(const Material& material, const float* triUVs /* s0 t0 s1 t1 s2 t2 */, const float* u,
+                     const float* v, uint32_t count) noexcept;
+
+// A simple conservative bake with classifyRegion (bounding-box footprint, so looser than somm_bake's): one
+// OmmArray per geometry at a fixed level; non-alpha-tested geometries get an empty array. Used by tests and
+// as the bitmask's rule.
+OmmArrays bakeSimple(const Scene& scene, uint32_t level, Format format);
+
+// UV of the hit (u, v) on triangle (s0 t0 s1 t1 s2 t2), exactly as the texture method computes it.
+inline void interpolateUV(const float* uv, float u, float v, float& s, float& t) noexcept {
+  const float w = 1.0f - u - v;
+  s = w * uv[0] + u * uv[2] + v * uv[4];
+  t = w * uv[1] + u * uv[3] + v * uv[5];
+}
+
+}  // namespace somm

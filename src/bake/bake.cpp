@@ -1,0 +1,555 @@
+// somm — conservative OMM baking. Algorithm and conservativeness argument: docs/baking.md.
+#include "somm/bake.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <string>
+
+namespace somm {
+
+namespace {
+
+struct Interval {
+  uint32_t lo, hi;  // inclusive
+};
+
+// The wrapped texel intervals of the unwrapped inclusive range [a, b] (a <= b); at most 4, possibly
+// overlapping.
+int wrapInterval(int64_t a, int64_t b, uint32_t size, Wrap w, Interval out[4]) noexcept {
+  const int64_t n = int64_t(size);
+  switch (w) {
+    case Wrap::ClampToEdge:
+      out[0] = {uint32_t(std::clamp<int64_t>(a, 0, n - 1)), uint32_t(std::clamp<int64_t>(b, 0, n - 1))};
+      return 1;
+    case Wrap::Repeat: {
+      if (b - a + 1 >= n) {
+        out[0] = {0, uint32_t(n - 1)};
+        return 1;
+      }
+      int64_t ra = a % n;
+      if (ra < 0) ra += n;
+      const int64_t rb = ra + (b - a);
+      if (rb < n) {
+        out[0] = {uint32_t(ra), uint32_t(rb)};
+        return 1;
+      }
+      out[0] = {uint32_t(ra), uint32_t(n - 1)};
+      out[1] = {0, uint32_t(rb - n)};
+      return 2;
+    }
+    case Wrap::MirroredRepeat: {
+      if (b - a + 1 >= 2 * n) {
+        out[0] = {0, uint32_t(n - 1)};
+        return 1;
+      }
+      int64_t ra = a % (2 * n);
+      if (ra < 0) ra += 2 * n;
+      const int64_t rb = ra + (b - a);  // < 4n
+      int k = 0;
+      for (int64_t s = 0; s < 4 && k < 4; ++s) {
+        const int64_t lo = std::max(ra, s * n), hi = std::min(rb, (s + 1) * n - 1);
+        if (lo > hi) continue;
+        if (s % 2 == 0)
+          out[k++] = {uint32_t(lo - s * n), uint32_t(hi - s * n)};
+        else
+          out[k++] = {uint32_t((s + 1) * n - 1 - hi), uint32_t((s + 1) * n - 1 - lo)};
+      }
+      return k;
+    }
+  }
+  out[0] = {0, uint32_t(n - 1)};
+  return 1;
+}
+
+constexpr unsigned kPass = 1, kFail = 2, kMixed = 3;
+
+inline double min3(const double v[3]) {
+  return std::min(v[0], std::min(v[1], v[2]));
+}
+inline double max3(const double v[3]) {
+  return std::max(v[0], std::max(v[1], v[2]));
+}
+
+uint8_t fillByte(Format f, State s) {
+  if (f == Format::TwoState) return (uint8_t(s) & 1u) ? 0xffu : 0x00u;
+  const uint8_t v = uint8_t(s) & 3u;
+  return uint8_t(v | (v << 2) | (v << 4) | (v << 6));
+}
+
+// Rows of cells beyond which a region is declared mixed without enumerating (still conservative).
+constexpr int64_t kMaxRows = int64_t(1) << 22;
+
+// Classifies one triangle's micro-triangles. Coordinates are in "cell space": texel space for nearest, texel
+// space shifted by −½ for linear (cell i of the shifted grid blends texels i and i + 1).
+struct TriangleClassifier {
+  const AlphaMask& mask;
+  double margin = 0;
+  double shift = 0;  // 0 nearest, 0.5 linear
+  int64_t ext = 0;   // 0 nearest, 1 linear: cell range [i0, i1] reads texels [i0, i1 + ext]
+  uint32_t level = 0;
+  Format format = Format::FourState;
+  UnknownAs unknownAs = UnknownAs::Majority;
+  uint8_t* bytes = nullptr;
+  uint64_t unknown = 0;
+
+  unsigned rect(int64_t i0, int64_t i1, int64_t j0, int64_t j1) const noexcept {
+    const AlphaMask::Count c = mask.count(i0, i1 + ext, j0, j1 + ext);
+    return (c.pass > 0 ? kPass : 0u) | (c.pass < c.total ? kFail : 0u);
+  }
+
+  // kPass / kFail / kMixed for the closed triangle (X, Y) grown by the margin (Minkowski sum with a square).
+  unsigned region(const double X[3], const double Y[3]) const noexcept {
+    const double m = margin;
+    const int64_t i0 = texelFloor(min3(X) - m), i1 = texelFloor(max3(X) + m);
+    const int64_t j0 = texelFloor(min3(Y) - m), j1 = texelFloor(max3(Y) + m);
+    const unsigned box = rect(i0, i1, j0, j1);
+    if (box != kMixed || j0 == j1) return box;
+    if (j1 - j0 > kMaxRows) return kMixed;
+    // Exact: per row of cells, the x-extent of the grown triangle within the row.
+    unsigned acc = 0;
+    for (int64_t j = j0; j <= j1; ++j) {
+      const double ya = double(j) - m, yb = double(j + 1) + m;
+      double xl = std::numeric_limits<double>::infinity(), xr = -xl;
+      for (int k = 0; k < 3; ++k) {
+        if (Y[k] >= ya && Y[k] <= yb) {
+          xl = std::min(xl, X[k]);
+          xr = std::max(xr, X[k]);
+        }
+        const int k1 = k == 2 ? 0 : k + 1;
+        const double dy = Y[k1] - Y[k];
+        for (const double c : {ya, yb}) {
+          if ((Y[k] < c && Y[k1] > c) || (Y[k] > c && Y[k1] < c)) {
+            const double x = X[k] + (c - Y[k]) / dy * (X[k1] - X[k]);
+            xl = std::min(xl, x);
+            xr = std::max(xr, x);
+          }
+        }
+      }
+      if (!(xl <= xr)) continue;
+      acc |= rect(texelFloor(xl - m), texelFloor(xr + m), j, j);
+      if (acc == kMixed) return kMixed;
+    }
+    return acc;
+  }
+
+  void fill(uint32_t start, uint32_t count, State s) noexcept {
+    const uint32_t perByte = format == Format::TwoState ? 8u : 4u;
+    if (count >= perByte) {
+      std::memset(bytes + start / perByte, fillByte(format, s), count / perByte);
+    } else {
+      for (uint32_t i = 0; i < count; ++i) writePackedState(bytes, format, start + i, s);
+    }
+  }
+
+  bool passesAt(double x, double y) const noexcept {
+    const AlphaTexture& t = *mask.texture();
+    const float s = float((x + shift) / double(t.width)), u = float((y + shift) / double(t.height));
+    return alphaTestPasses(sampleAlpha(t, mask.sampler(), s, u), mask.cutoff());
+  }
+
+  // The state an unknown micro-triangle gets: by majority of the alpha test at the centroids of its 4
+  // children (ties: its own centroid), or as the 2-state option says.
+  State unknownState(const double X[3], const double Y[3]) const noexcept {
+    if (format == Format::TwoState && unknownAs != UnknownAs::Majority)
+      return unknownAs == UnknownAs::Opaque ? State::Opaque : State::Transparent;
+    // Child centroids in barycentric terms: (4,1,1)/6, (1,4,1)/6, (1,1,4)/6 and (1,1,1)/3 (the middle child).
+    static constexpr double w[4][3] = {{4. / 6, 1. / 6, 1. / 6},
+                                       {1. / 6, 4. / 6, 1. / 6},
+                                       {1. / 6, 1. / 6, 4. / 6},
+                                       {1. / 3, 1. / 3, 1. / 3}};
+    int pass = 0;
+    for (const auto& b : w)
+      pass += passesAt(b[0] * X[0] + b[1] * X[1] + b[2] * X[2], b[0] * Y[0] + b[1] * Y[1] + b[2] * Y[2]);
+    bool opaque;
+    if (pass != 2) {
+      opaque = pass > 2;
+    } else {
+      // The middle child's centroid is the parent's centroid; break the tie with a point between it and
+      // vertex 0.
+      opaque = passesAt((2 * X[0] + X[1] + X[2]) / 4, (2 * Y[0] + Y[1] + Y[2]) / 4);
+    }
+    if (format == Format::TwoState) return opaque ? State::Opaque : State::Transparent;
+    return opaque ? State::UnknownOpaque : State::UnknownTransparent;
+  }
+
+  // Node `prefix` at `depth` with cell-space vertices (X, Y) whose region class is `r`.
+  void node(const double X[3], const double Y[3], uint32_t depth, uint32_t prefix, unsigned r) noexcept {
+    const uint32_t span = 1u << (2 * (level - depth));
+    const uint32_t start = prefix * span;
+    if (r == kPass) return fill(start, span, State::Opaque);
+    if (r == kFail) return fill(start, span, State::Transparent);
+    if (depth == level) {
+      ++unknown;
+      return fill(start, 1, unknownState(X, Y));
+    }
+    const double ax = X[0], ay = Y[0], bx = X[1], by = Y[1], cx = X[2], cy = Y[2];
+    const double abx = (ax + bx) * 0.5, aby = (ay + by) * 0.5;
+    const double acx = (ax + cx) * 0.5, acy = (ay + cy) * 0.5;
+    const double bcx = (bx + cx) * 0.5, bcy = (by + cy) * 0.5;
+    // Child order of the bird curve (see indexToMicroTriangle).
+    const double cX[4][3] = {{ax, abx, acx}, {acx, bcx, abx}, {abx, bx, bcx}, {bcx, acx, cx}};
+    const double cY[4][3] = {{ay, aby, acy}, {acy, bcy, aby}, {aby, by, bcy}, {bcy, acy, cy}};
+    for (uint32_t c = 0; c < 4; ++c) node(cX[c], cY[c], depth + 1, prefix * 4 + c, region(cX[c], cY[c]));
+  }
+};
+
+bool finite2(const std::array<float, 2>& p) {
+  return std::isfinite(p[0]) && std::isfinite(p[1]);
+}
+
+// One triangle's outcome: a uniform state (no map needed) or a map.
+struct Baked {
+  std::optional<State> uniform;
+  Micromap map;
+  uint64_t unknown = 0;
+  bool nonFinite = false;
+};
+
+State wholeUnknown(Format format, UnknownAs unknownAs) {
+  if (format == Format::FourState) return State::UnknownOpaque;
+  return unknownAs == UnknownAs::Transparent ? State::Transparent : State::Opaque;
+}
+
+void bakeOne(const AlphaMask& mask, std::array<float, 2> uv0, std::array<float, 2> uv1,
+             std::array<float, 2> uv2, uint32_t level, Format format, UnknownAs unknownAs, Baked& out) {
+  out.uniform.reset();
+  out.unknown = 0;
+  out.nonFinite = false;
+  if (!finite2(uv0) || !finite2(uv1) || !finite2(uv2)) {
+    out.nonFinite = true;
+    out.uniform = wholeUnknown(format, unknownAs);
+    out.unknown = microTriangleCount(level);
+    return;
+  }
+  const double W = mask.width(), H = mask.height();
+  double X[3] = {double(uv0[0]) * W, double(uv1[0]) * W, double(uv2[0]) * W};
+  double Y[3] = {double(uv0[1]) * H, double(uv1[1]) * H, double(uv2[1]) * H};
+  TriangleClassifier c{mask};
+  c.margin = bakeMarginTexels(X, Y);
+  c.shift = mask.sampler().filter == Filter::Linear ? 0.5 : 0.0;
+  c.ext = mask.sampler().filter == Filter::Linear ? 1 : 0;
+  c.level = level;
+  c.format = format;
+  c.unknownAs = unknownAs;
+  for (int k = 0; k < 3; ++k) {
+    X[k] -= c.shift;
+    Y[k] -= c.shift;
+  }
+  const unsigned r = c.region(X, Y);
+  if (r == kPass || r == kFail) {
+    out.uniform = r == kPass ? State::Opaque : State::Transparent;
+    return;
+  }
+  if (level == 0) {
+    out.uniform = c.unknownState(X, Y);
+    out.unknown = 1;
+    return;
+  }
+  out.map = Micromap(level, format);
+  c.bytes = out.map.bytes().data();
+  c.node(X, Y, 0, 0, r);
+  out.unknown = c.unknown;
+}
+
+std::array<float, 2> uvOf(const Geometry& g, uint32_t vertex) {
+  return {g.uvs[2 * size_t(vertex)], g.uvs[2 * size_t(vertex) + 1]};
+}
+
+Status validateGeometry(const Geometry& g, bool needUvs) {
+  const std::string name = "geometry '" + g.name + "'";
+  if (g.indices.size() % 3 != 0)
+    return makeError(ErrorCode::InvalidArgument,
+                     name + ": index count " + std::to_string(g.indices.size()) + " is not a multiple of 3");
+  if (!needUvs) return Ok{};
+  if (g.uvs.size() % 2 != 0) return makeError(ErrorCode::InvalidArgument, name + ": odd number of UV floats");
+  const size_t vertices = g.uvs.size() / 2;
+  for (uint32_t i : g.indices)
+    if (i >= vertices)
+      return makeError(ErrorCode::InvalidArgument, name + ": index " + std::to_string(i) + " out of range (" +
+                                                       std::to_string(vertices) + " vertices with UVs)");
+  return Ok{};
+}
+
+Status validateTexture(const Material& m) {
+  const AlphaTexture& t = *m.alpha;
+  const std::string name =
+      "material '" + m.name + "' alpha texture" + (m.alphaSource.empty() ? "" : " " + m.alphaSource);
+  if (t.width == 0 || t.height == 0) return makeError(ErrorCode::InvalidArgument, name + ": empty texture");
+  if (uint64_t(t.width) * t.height >= (uint64_t(1) << 32))
+    return makeError(ErrorCode::LimitExceeded, name + ": texture too large");
+  if (t.alpha.size() != size_t(t.width) * t.height)
+    return makeError(ErrorCode::InvalidArgument, name + ": alpha has " + std::to_string(t.alpha.size()) +
+                                                     " values for " + std::to_string(t.width) + "x" +
+                                                     std::to_string(t.height));
+  return Ok{};
+}
+
+Sampler effectiveSampler(const Material& m, const BakeOptions& o) {
+  Sampler s = m.sampler;
+  if (o.filter) s.filter = *o.filter;
+  return s;
+}
+
+float effectiveCutoff(const Material& m, const BakeOptions& o) {
+  return o.cutoff ? *o.cutoff : m.alphaCutoff;
+}
+
+// Level per triangle before any maxBytes cap.
+std::vector<uint8_t> chooseLevels(const Geometry& g, const AlphaMask& mask, const BakeOptions& o) {
+  const uint32_t n = g.triangleCount();
+  std::vector<uint8_t> levels(n, uint8_t(o.level));
+  if (o.texelsPerMicroTri > 0) {
+    for (uint32_t t = 0; t < n; ++t)
+      levels[t] = uint8_t(adaptiveLevel(uvOf(g, g.indices[3 * t]), uvOf(g, g.indices[3 * t + 1]),
+                                        uvOf(g, g.indices[3 * t + 2]), mask.width(), mask.height(),
+                                        o.texelsPerMicroTri, o.maxLevel));
+  }
+  return levels;
+}
+
+// Bakes every triangle at min(level, cap) into `out`.
+void bakeAll(const Geometry& g, const AlphaMask& mask, const std::vector<uint8_t>& levels, uint32_t cap,
+             const BakeOptions& o, tbb::task_arena& arena, BakedGeometry& out) {
+  const uint32_t n = g.triangleCount();
+  OmmArrayBuilder builder;
+  BakeStats& st = out.stats;
+  st.microTriangles = st.unknownMicroTriangles = st.nonFiniteUvTriangles = 0;
+  out.levels.assign(n, 0);
+  std::vector<Baked> slots;
+  uint32_t t = 0;
+  while (t < n) {
+    // Chunks bounded in count and map memory; chunking never changes the output (maps are added in triangle
+    // order).
+    uint32_t end = t;
+    uint64_t bytes = 0;
+    while (end < n && end - t < 4096 && bytes < (uint64_t(64) << 20)) {
+      bytes += micromapDataBytes(std::min<uint32_t>(levels[end], cap), o.format);
+      ++end;
+    }
+    slots.resize(end - t);
+    arena.execute([&] {
+      tbb::parallel_for(tbb::blocked_range<uint32_t>(t, end, 8), [&](const tbb::blocked_range<uint32_t>& r) {
+        for (uint32_t i = r.begin(); i != r.end(); ++i) {
+          const uint32_t level = std::min<uint32_t>(levels[i], cap);
+          bakeOne(mask, uvOf(g, g.indices[3 * i]), uvOf(g, g.indices[3 * i + 1]),
+                  uvOf(g, g.indices[3 * i + 2]), level, o.format, o.unknownAs, slots[i - t]);
+        }
+      });
+    });
+    for (uint32_t i = t; i < end; ++i) {
+      Baked& b = slots[i - t];
+      const uint32_t level = std::min<uint32_t>(levels[i], cap);
+      out.levels[i] = uint8_t(level);
+      st.microTriangles += microTriangleCount(level);
+      st.unknownMicroTriangles += b.unknown;
+      st.nonFiniteUvTriangles += b.nonFinite;
+      if (b.uniform)
+        builder.addSpecial(*b.uniform);
+      else
+        builder.add(b.map);
+      b.map = Micromap();
+    }
+    t = end;
+    if (o.progress) o.progress(double(t) / double(n));
+  }
+  out.array = builder.finish();
+}
+
+void finishStats(BakedGeometry& out) {
+  BakeStats& st = out.stats;
+  st.triangles = out.array.indices.size();
+  st.specialCount = {};
+  for (int32_t i : out.array.indices)
+    if (isSpecialIndex(i)) ++st.specialCount[size_t(stateOfSpecialIndex(i))];
+  st.uniqueMaps = out.array.descriptors.size();
+  st.dataBytes = out.array.data.size();
+  st.minLevel = st.maxLevel = 0;
+  if (!out.levels.empty()) {
+    st.minLevel = *std::min_element(out.levels.begin(), out.levels.end());
+    st.maxLevel = *std::max_element(out.levels.begin(), out.levels.end());
+  }
+}
+
+}  // namespace
+
+AlphaMask::AlphaMask(const AlphaTexture& texture, const Sampler& sampler, float cutoff)
+    : tex_(&texture), w_(texture.width), h_(texture.height), sampler_(sampler), cutoff_(cutoff) {
+  assert(w_ > 0 && h_ > 0 && texture.alpha.size() == size_t(w_) * h_);
+  const size_t stride = size_t(w_) + 1;
+  sat_.assign(stride * (size_t(h_) + 1), 0);
+  for (uint32_t y = 0; y < h_; ++y) {
+    uint32_t row = 0;
+    for (uint32_t x = 0; x < w_; ++x) {
+      row += alphaTestPasses(texture.at(x, y), cutoff) ? 1u : 0u;
+      sat_[(size_t(y) + 1) * stride + x + 1] = sat_[size_t(y) * stride + x + 1] + row;
+    }
+  }
+}
+
+uint64_t AlphaMask::rect(uint32_t x0, uint32_t x1, uint32_t y0, uint32_t y1) const noexcept {
+  const size_t stride = size_t(w_) + 1;
+  const uint32_t* a = sat_.data() + size_t(y0) * stride;
+  const uint32_t* b = sat_.data() + (size_t(y1) + 1) * stride;
+  return uint32_t(b[x1 + 1] - b[x0] - a[x1 + 1] + a[x0]);  // modular arithmetic; the true count fits
+}
+
+AlphaMask::Count AlphaMask::count(int64_t x0, int64_t x1, int64_t y0, int64_t y1) const noexcept {
+  Interval xs[4], ys[4];
+  const int nx = wrapInterval(x0, x1, w_, sampler_.wrapS, xs);
+  const int ny = wrapInterval(y0, y1, h_, sampler_.wrapT, ys);
+  Count c;
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      c.pass += rect(xs[i].lo, xs[i].hi, ys[j].lo, ys[j].hi);
+      c.total += uint64_t(xs[i].hi - xs[i].lo + 1) * (ys[j].hi - ys[j].lo + 1);
+    }
+  return c;
+}
+
+double bakeMarginTexels(const double x[3], const double y[3]) noexcept {
+  double mag = 0;
+  for (int k = 0; k < 3; ++k) mag = std::max(mag, std::max(std::fabs(x[k]), std::fabs(y[k])));
+  return 1e-3 + 1e-5 * mag;
+}
+
+uint32_t adaptiveLevel(std::array<float, 2> uv0, std::array<float, 2> uv1, std::array<float, 2> uv2,
+                       uint32_t width, uint32_t height, float texelsPerMicroTri, uint32_t maxLevel) noexcept {
+  const double e1x = double(uv1[0]) - uv0[0], e1y = double(uv1[1]) - uv0[1];
+  const double e2x = double(uv2[0]) - uv0[0], e2y = double(uv2[1]) - uv0[1];
+  const double area = std::fabs(e1x * e2y - e1y * e2x) * 0.5 * double(width) * double(height);
+  if (!std::isfinite(area) || !(texelsPerMicroTri > 0)) return 0;
+  uint32_t level = 0;
+  double cap = texelsPerMicroTri;
+  while (level < maxLevel && area > cap) {
+    ++level;
+    cap *= 4;
+  }
+  return level;
+}
+
+TriangleBake bakeTriangle(const AlphaMask& mask, std::array<float, 2> uv0, std::array<float, 2> uv1,
+                          std::array<float, 2> uv2, uint32_t level, Format format, UnknownAs unknownAs) {
+  assert(level <= kMaxLevel);
+  Baked b;
+  bakeOne(mask, uv0, uv1, uv2, level, format, unknownAs, b);
+  TriangleBake r;
+  r.map = b.uniform ? Micromap(level, format, *b.uniform) : std::move(b.map);
+  r.unknownCount = b.unknown;
+  r.nonFiniteUv = b.nonFinite;
+  return r;
+}
+
+Status validateBakeOptions(const BakeOptions& o) {
+  if (o.level > kMaxLevel)
+    return makeError(ErrorCode::InvalidArgument,
+                     "--level " + std::to_string(o.level) + " is out of range 0..12");
+  if (o.maxLevel > kMaxLevel)
+    return makeError(ErrorCode::InvalidArgument,
+                     "--max-level " + std::to_string(o.maxLevel) + " is out of range 0..12");
+  if (!(o.texelsPerMicroTri >= 0) || !std::isfinite(o.texelsPerMicroTri))
+    return makeError(ErrorCode::InvalidArgument, "--texels-per-microtri must be a finite number >= 0");
+  if (!isValidFormat(uint32_t(o.format)))
+    return makeError(ErrorCode::InvalidArgument, "--format must be 2 or 4");
+  if (o.cutoff && !std::isfinite(*o.cutoff))
+    return makeError(ErrorCode::InvalidArgument, "--cutoff must be finite");
+  if (uint8_t(o.unknownAs) > 2) return makeError(ErrorCode::InvalidArgument, "--unknown-as is invalid");
+  return Ok{};
+}
+
+Result<BakedGeometry> bakeGeometry(const Geometry& geometry, const Material& material,
+                                   const BakeOptions& options) {
+  const bool textured = material.alphaMode != AlphaMode::Opaque && material.alpha;
+  if (!textured) return bakeGeometry(geometry, material, nullptr, options);
+  if (Status s = validateTexture(material); !s) return s.error();
+  const AlphaMask mask(*material.alpha, effectiveSampler(material, options),
+                       effectiveCutoff(material, options));
+  return bakeGeometry(geometry, material, &mask, options);
+}
+
+Result<BakedGeometry> bakeGeometry(const Geometry& geometry, const Material& material, const AlphaMask* mask,
+                                   const BakeOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (Status s = validateBakeOptions(options); !s) return s.error();
+  const bool textured = material.alphaMode != AlphaMode::Opaque && material.alpha;
+  if (textured && !mask)
+    return makeError(ErrorCode::InvalidArgument, "material '" + material.name + "': no prepared alpha mask");
+  if (Status s = validateGeometry(geometry, textured); !s) return s.error();
+
+  BakedGeometry out;
+  const uint32_t n = geometry.triangleCount();
+  if (!textured) {
+    // Not alpha-tested, or a constant alpha: one state for every point of every triangle.
+    State s = State::Opaque;
+    if (material.alphaMode != AlphaMode::Opaque)
+      s = alphaTestPasses(material.baseColorFactor[3], effectiveCutoff(material, options))
+              ? State::Opaque
+              : State::Transparent;
+    OmmArrayBuilder builder;
+    for (uint32_t t = 0; t < n; ++t) builder.addSpecial(s);
+    out.array = builder.finish();
+    out.levels.assign(n, 0);
+    out.stats.microTriangles = n;
+    finishStats(out);
+    if (options.progress) options.progress(1.0);
+    out.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return out;
+  }
+
+  tbb::task_arena arena(options.threads ? int(options.threads) : tbb::task_arena::automatic);
+  const std::vector<uint8_t> levels = chooseLevels(geometry, *mask, options);
+  const uint32_t top = levels.empty() ? 0 : *std::max_element(levels.begin(), levels.end());
+  bakeAll(geometry, *mask, levels, kMaxLevel, options, arena, out);
+  out.stats.levelCap = kMaxLevel;
+  if (options.maxBytes > 0) {
+    // Lower the largest maps (the highest levels) one level at a time until the data fits. Level 0 always
+    // fits: a one-state map is uniform and becomes a special index.
+    for (uint32_t cap = top; out.array.data.size() > options.maxBytes && cap-- > 0;) {
+      bakeAll(geometry, *mask, levels, cap, options, arena, out);
+      out.stats.levelCap = cap;
+    }
+  }
+  finishStats(out);
+  out.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+Result<BakeEstimate> estimateBake(const Geometry& geometry, const Material& material,
+                                  const BakeOptions& options) {
+  if (Status s = validateBakeOptions(options); !s) return s.error();
+  const bool textured = material.alphaMode != AlphaMode::Opaque && material.alpha;
+  if (textured) {
+    if (Status s = validateTexture(material); !s) return s.error();
+  }
+  if (Status s = validateGeometry(geometry, textured); !s) return s.error();
+  BakeEstimate e;
+  const uint32_t n = geometry.triangleCount();
+  e.triangles = n;
+  if (!textured) {
+    e.microTriangles = n;
+    return e;
+  }
+  const AlphaTexture& tex = *material.alpha;
+  for (uint32_t t = 0; t < n; ++t) {
+    const auto a = uvOf(geometry, geometry.indices[3 * t]), b = uvOf(geometry, geometry.indices[3 * t + 1]),
+               c = uvOf(geometry, geometry.indices[3 * t + 2]);
+    const uint32_t level =
+        options.texelsPerMicroTri > 0
+            ? adaptiveLevel(a, b, c, tex.width, tex.height, options.texelsPerMicroTri, options.maxLevel)
+            : options.level;
+    e.microTriangles += microTriangleCount(level);
+    if (!finite2(a) || !finite2(b) || !finite2(c) || level == 0) continue;
+    ++e.mapTriangles;
+    ++e.levelHistogram[level];
+    e.dataBytes += micromapDataBytes(level, options.format);
+  }
+  return e;
+}
+
+}  // namespace somm

@@ -1,0 +1,619 @@
+// somm — glTF 2.0 (.gltf / .glb) loading via tinygltf. tinygltf parses the JSON and the buffers; everything
+// else (accessor bounds, images, node hierarchy) is validated and converted here, so malformed files give
+// errors, not crashes.
+#include <tiny_gltf.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <utility>
+
+#include "image_io.h"
+#include "loaders.h"
+
+namespace somm::detail {
+
+namespace {
+
+using Mat4 = std::array<double, 16>;  // column-major
+
+constexpr Mat4 kIdentity{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+
+Mat4 mul(const Mat4& a, const Mat4& b) {
+  Mat4 c{};
+  for (int col = 0; col < 4; ++col)
+    for (int row = 0; row < 4; ++row) {
+      double s = 0;
+      for (int k = 0; k < 4; ++k) s += a[k * 4 + row] * b[col * 4 + k];
+      c[col * 4 + row] = s;
+    }
+  return c;
+}
+
+Mat4 localTransform(const tinygltf::Node& n) {
+  if (n.matrix.size() == 16) {
+    Mat4 m;
+    std::copy(n.matrix.begin(), n.matrix.end(), m.begin());
+    return m;
+  }
+  double t[3] = {0, 0, 0}, s[3] = {1, 1, 1}, q[4] = {0, 0, 0, 1};
+  if (n.translation.size() == 3) std::copy(n.translation.begin(), n.translation.end(), t);
+  if (n.scale.size() == 3) std::copy(n.scale.begin(), n.scale.end(), s);
+  if (n.rotation.size() == 4) std::copy(n.rotation.begin(), n.rotation.end(), q);
+  const double x = q[0], y = q[1], z = q[2], w = q[3];
+  const double r[3][3] = {{1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)},
+                          {2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)},
+                          {2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)}};
+  Mat4 m{};
+  for (int col = 0; col < 3; ++col)
+    for (int row = 0; row < 3; ++row) m[col * 4 + row] = r[row][col] * s[col];
+  m[12] = t[0], m[13] = t[1], m[14] = t[2], m[15] = 1;
+  return m;
+}
+
+// Keeps images encoded: bytes of URI images are stored as-is; bufferView images are decoded later by us
+// (tinygltf does not bounds-check their buffer views).
+bool keepEncoded(tinygltf::Image* image, const int, std::string*, std::string*, int, int,
+                 const unsigned char* bytes, int size, void*) {
+  if (image->bufferView < 0 && bytes && size > 0) image->image.assign(bytes, bytes + size);
+  image->as_is = true;
+  return true;
+}
+
+// No shell-style expansion of URIs (tinygltf's default uses wordexp).
+std::string noExpand(const std::string& p, void*) {
+  return p;
+}
+
+void splitLines(const std::string& text, std::vector<std::string>& out) {
+  size_t start = 0;
+  while (start < text.size()) {
+    size_t end = text.find('\n', start);
+    if (end == std::string::npos) end = text.size();
+    std::string line = text.substr(start, end - start);
+    while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
+    if (!line.empty()) out.push_back(std::move(line));
+    start = end + 1;
+  }
+}
+
+// A validated accessor: element i starts at base + i * stride. base == nullptr: all zeros (no bufferView).
+struct AccessorView {
+  const uint8_t* base = nullptr;
+  size_t stride = 0, count = 0;
+  int componentType = 0, components = 0;
+  bool normalized = false;
+
+  double component(size_t i, int c) const noexcept {
+    if (!base) return 0.0;
+    const uint8_t* p = base + i * stride;
+    switch (componentType) {
+      case TINYGLTF_COMPONENT_TYPE_FLOAT: {
+        float v;
+        std::memcpy(&v, p + 4 * c, 4);
+        return v;
+      }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: {
+        const uint8_t v = p[c];
+        return normalized ? v / 255.0 : double(v);
+      }
+      case TINYGLTF_COMPONENT_TYPE_BYTE: {
+        int8_t v;
+        std::memcpy(&v, p + c, 1);
+        return normalized ? std::max(v / 127.0, -1.0) : double(v);
+      }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+        uint16_t v;
+        std::memcpy(&v, p + 2 * c, 2);
+        return normalized ? v / 65535.0 : double(v);
+      }
+      case TINYGLTF_COMPONENT_TYPE_SHORT: {
+        int16_t v;
+        std::memcpy(&v, p + 2 * c, 2);
+        return normalized ? std::max(v / 32767.0, -1.0) : double(v);
+      }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
+        uint32_t v;
+        std::memcpy(&v, p + 4 * c, 4);
+        return double(v);
+      }
+      default:
+        return 0.0;
+    }
+  }
+  uint32_t index(size_t i) const noexcept {
+    if (!base) return 0;
+    const uint8_t* p = base + i * stride;
+    switch (componentType) {
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+        return p[0];
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+        uint16_t v;
+        std::memcpy(&v, p, 2);
+        return v;
+      }
+      default: {
+        uint32_t v;
+        std::memcpy(&v, p, 4);
+        return v;
+      }
+    }
+  }
+};
+
+class GltfLoader {
+ public:
+  GltfLoader(std::string path, const LoadOptions& opts) : path_(std::move(path)), opts_(opts) {}
+
+  Result<Scene> run(bool binary);
+
+ private:
+  Error fail(ErrorCode code, const std::string& what) const { return makeError(code, path_ + ": " + what); }
+
+  Result<AccessorView> view(int accessor, const std::string& what, int expectType) const;
+  Status loadMaterials();
+  Status loadGeometries();
+  Status loadInstances();
+  Result<std::shared_ptr<const RawImage>> image(int imageIndex, const std::string& materialName);
+
+  struct MatInfo {
+    int texCoord = 0;
+    bool transform = false;
+    double m[6] = {1, 0, 0, 0, 1, 0};  // u' = m0 u + m1 v + m2, v' = m3 u + m4 v + m5
+    bool alphaFromTexture = false;
+  };
+
+  std::string path_;
+  LoadOptions opts_;
+  tinygltf::Model model_;
+  Scene scene_;
+  std::vector<MatInfo> matInfo_;
+  int defaultMaterial_ = -1;
+  std::vector<uint32_t> firstGeometry_;  // per mesh
+  std::map<int, std::shared_ptr<const RawImage>> images_;
+};
+
+Result<AccessorView> GltfLoader::view(int index, const std::string& what, int expectType) const {
+  if (index < 0 || size_t(index) >= model_.accessors.size())
+    return fail(ErrorCode::CorruptFile, what + ": accessor " + std::to_string(index) + " does not exist");
+  const tinygltf::Accessor& a = model_.accessors[size_t(index)];
+  const std::string name = what + " (accessor " + std::to_string(index) + ")";
+  if (a.type != expectType) return fail(ErrorCode::CorruptFile, name + ": wrong accessor type");
+  const int compSize = tinygltf::GetComponentSizeInBytes(uint32_t(a.componentType));
+  const int comps = tinygltf::GetNumComponentsInType(uint32_t(a.type));
+  if (compSize <= 0 || compSize > 4 || comps <= 0)
+    return fail(ErrorCode::CorruptFile, name + ": invalid component type " + std::to_string(a.componentType));
+  if (a.sparse.isSparse)
+    return fail(ErrorCode::UnsupportedFormat, name + ": sparse accessors are not supported");
+  AccessorView v;
+  v.count = a.count;
+  v.componentType = a.componentType;
+  v.components = comps;
+  v.normalized = a.normalized;
+  const size_t elem = size_t(compSize) * size_t(comps);
+  if (a.bufferView < 0) {
+    if (a.count > (size_t(1) << 31)) return fail(ErrorCode::LimitExceeded, name + ": too many elements");
+    return v;  // all zeros
+  }
+  if (size_t(a.bufferView) >= model_.bufferViews.size())
+    return fail(ErrorCode::CorruptFile,
+                name + ": buffer view " + std::to_string(a.bufferView) + " does not exist");
+  const tinygltf::BufferView& bv = model_.bufferViews[size_t(a.bufferView)];
+  if (bv.buffer < 0 || size_t(bv.buffer) >= model_.buffers.size())
+    return fail(ErrorCode::CorruptFile, name + ": buffer " + std::to_string(bv.buffer) + " does not exist");
+  const tinygltf::Buffer& buf = model_.buffers[size_t(bv.buffer)];
+  if (bv.byteOffset > buf.data.size() || bv.byteLength > buf.data.size() - bv.byteOffset)
+    return fail(ErrorCode::CorruptFile, name + ": buffer view " + std::to_string(a.bufferView) +
+                                            " extends past the end of its buffer");
+  const size_t stride = bv.byteStride ? bv.byteStride : elem;
+  if (stride < elem || stride > 1024)
+    return fail(ErrorCode::CorruptFile, name + ": invalid byte stride " + std::to_string(bv.byteStride));
+  if (a.count > 0) {
+    // offset + stride * (count - 1) + elem <= byteLength, without overflow.
+    if (a.byteOffset > bv.byteLength || a.count - 1 > bv.byteLength / stride ||
+        stride * (a.count - 1) > bv.byteLength - a.byteOffset ||
+        elem > bv.byteLength - a.byteOffset - stride * (a.count - 1))
+      return fail(ErrorCode::CorruptFile, name + ": " + std::to_string(a.count) +
+                                              " elements extend past the end of buffer view " +
+                                              std::to_string(a.bufferView));
+  }
+  v.base = buf.data.data() + bv.byteOffset + a.byteOffset;
+  v.stride = stride;
+  return v;
+}
+
+Result<std::shared_ptr<const RawImage>> GltfLoader::image(int index, const std::string& matName) {
+  auto it = images_.find(index);
+  if (it != images_.end()) return it->second;
+  const std::string ctx = "material '" + matName + "'";
+  if (index < 0 || size_t(index) >= model_.images.size())
+    return fail(ErrorCode::CorruptFile, ctx + ": image " + std::to_string(index) + " does not exist");
+  const tinygltf::Image& im = model_.images[size_t(index)];
+  Result<RawImage> raw = makeError(ErrorCode::CorruptFile, "no image data");
+  std::string where;
+  if (im.bufferView >= 0) {
+    where = "image " + std::to_string(index) + " (buffer view " + std::to_string(im.bufferView) + ")";
+    if (size_t(im.bufferView) >= model_.bufferViews.size())
+      return fail(ErrorCode::CorruptFile, ctx + ": " + where + " does not exist");
+    const tinygltf::BufferView& bv = model_.bufferViews[size_t(im.bufferView)];
+    if (bv.buffer < 0 || size_t(bv.buffer) >= model_.buffers.size())
+      return fail(ErrorCode::CorruptFile, ctx + ": " + where + ": buffer does not exist");
+    const tinygltf::Buffer& buf = model_.buffers[size_t(bv.buffer)];
+    if (bv.byteOffset > buf.data.size() || bv.byteLength > buf.data.size() - bv.byteOffset)
+      return fail(ErrorCode::CorruptFile, ctx + ": " + where + " extends past the end of its buffer");
+    raw = decodeImage(buf.data.data() + bv.byteOffset, bv.byteLength);
+  } else if (tinygltf::IsDataURI(im.uri) || (im.uri.empty() && !im.image.empty())) {
+    where = "image " + std::to_string(index) + " (data URI)";
+    raw = decodeImage(im.image.data(), im.image.size());
+  } else {
+    const std::filesystem::path base = std::filesystem::path(path_).parent_path();
+    where = "'" + (base / im.uri).string() + "'";
+    if (im.image.empty()) {
+      // tinygltf only warns when an external image is missing: try ourselves, for the reason of the failure.
+      raw = readImageFile((base / im.uri).string());
+    } else {
+      raw = decodeImage(im.image.data(), im.image.size());
+    }
+  }
+  if (!raw.ok()) return fail(raw.error().code, ctx + ": texture " + where + ": " + raw.error().message);
+  auto p = std::make_shared<const RawImage>(std::move(raw.value()));
+  images_[index] = p;
+  return p;
+}
+
+Status GltfLoader::loadMaterials() {
+  std::map<std::pair<int, float>, std::shared_ptr<const AlphaTexture>> alphaCache;
+  std::map<int, std::shared_ptr<const ColorImage>> colorCache;
+  for (size_t i = 0; i < model_.materials.size(); ++i) {
+    const tinygltf::Material& gm = model_.materials[i];
+    Material m;
+    m.name = gm.name.empty() ? "material" + std::to_string(i) : gm.name;
+    m.doubleSided = gm.doubleSided;
+    const auto& f = gm.pbrMetallicRoughness.baseColorFactor;
+    if (f.size() == 4)
+      for (int c = 0; c < 4; ++c) m.baseColorFactor[size_t(c)] = float(f[size_t(c)]);
+    m.alphaCutoff = float(gm.alphaCutoff);
+    if (gm.alphaMode == "MASK") {
+      m.alphaMode = AlphaMode::Mask;
+    } else if (gm.alphaMode == "BLEND") {
+      if (opts_.blendAsMask) {
+        m.alphaMode = AlphaMode::Mask;
+      } else {
+        m.alphaMode = AlphaMode::Blend;
+        scene_.warnings.push_back(
+            "material '" + m.name +
+            "' uses alphaMode BLEND: not alpha-tested, no micromaps (use blend-as-mask)");
+      }
+    } else if (gm.alphaMode.empty() || gm.alphaMode == "OPAQUE") {
+      m.alphaMode = AlphaMode::Opaque;
+    } else {
+      scene_.warnings.push_back("material '" + m.name + "': unknown alphaMode '" + gm.alphaMode +
+                                "', treated as OPAQUE");
+    }
+    if (!(m.alphaCutoff >= 0.0f) || !std::isfinite(m.alphaCutoff))
+      return fail(ErrorCode::CorruptFile, "material '" + m.name + "': invalid alphaCutoff");
+
+    MatInfo info;
+    const tinygltf::TextureInfo& ti = gm.pbrMetallicRoughness.baseColorTexture;
+    info.texCoord = std::max(ti.texCoord, 0);
+    if (ti.index >= 0) {
+      if (size_t(ti.index) >= model_.textures.size())
+        return fail(ErrorCode::CorruptFile,
+                    "material '" + m.name + "': texture " + std::to_string(ti.index) + " does not exist");
+      const tinygltf::Texture& tex = model_.textures[size_t(ti.index)];
+      if (tex.source < 0)
+        return fail(
+            ErrorCode::UnsupportedFormat,
+            "material '" + m.name + "': base colour texture has no image source (unsupported extension?)");
+      if (tex.sampler >= 0) {
+        if (size_t(tex.sampler) >= model_.samplers.size())
+          return fail(ErrorCode::CorruptFile, "material '" + m.name + "': sampler " +
+                                                  std::to_string(tex.sampler) + " does not exist");
+        const tinygltf::Sampler& s = model_.samplers[size_t(tex.sampler)];
+        auto wrap = [](int w) {
+          return w == TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE     ? Wrap::ClampToEdge
+                 : w == TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT ? Wrap::MirroredRepeat
+                                                              : Wrap::Repeat;
+        };
+        m.sampler.wrapS = wrap(s.wrapS);
+        m.sampler.wrapT = wrap(s.wrapT);
+        m.sampler.filter = s.magFilter == TINYGLTF_TEXTURE_FILTER_NEAREST ? Filter::Nearest : Filter::Linear;
+      }
+      // KHR_texture_transform: uv' = T · R · S · uv.
+      auto ext = ti.extensions.find("KHR_texture_transform");
+      if (ext != ti.extensions.end() && ext->second.IsObject()) {
+        const tinygltf::Value& v = ext->second;
+        double off[2] = {0, 0}, sc[2] = {1, 1}, rot = 0;
+        auto num2 = [&](const char* key, double out[2]) {
+          if (!v.Has(key)) return true;
+          const tinygltf::Value& a = v.Get(key);
+          if (!a.IsArray() || a.ArrayLen() != 2 || !a.Get(0).IsNumber() || !a.Get(1).IsNumber()) return false;
+          out[0] = a.Get(0).GetNumberAsDouble(), out[1] = a.Get(1).GetNumberAsDouble();
+          return true;
+        };
+        bool good = num2("offset", off) && num2("scale", sc);
+        if (v.Has("rotation")) {
+          if (v.Get("rotation").IsNumber())
+            rot = v.Get("rotation").GetNumberAsDouble();
+          else
+            good = false;
+        }
+        if (v.Has("texCoord")) {
+          if (v.Get("texCoord").IsInt() && v.Get("texCoord").GetNumberAsInt() >= 0)
+            info.texCoord = v.Get("texCoord").GetNumberAsInt();
+          else
+            good = false;
+        }
+        if (!good)
+          return fail(ErrorCode::CorruptFile, "material '" + m.name + "': malformed KHR_texture_transform");
+        const double c = std::cos(rot), s = std::sin(rot);
+        info.transform = true;
+        info.m[0] = c * sc[0], info.m[1] = s * sc[1], info.m[2] = off[0];
+        info.m[3] = -s * sc[0], info.m[4] = c * sc[1], info.m[5] = off[1];
+      }
+      auto raw = image(tex.source, m.name);
+      if (!raw.ok()) return raw.error();
+      const RawImage& img = *raw.value();
+      const tinygltf::Image& gi = model_.images[size_t(tex.source)];
+      m.alphaSource = gi.uri.empty() || tinygltf::IsDataURI(gi.uri)
+                          ? "image " + std::to_string(tex.source)
+                          : (std::filesystem::path(path_).parent_path() / gi.uri).string();
+      auto& col = colorCache[tex.source];
+      if (!col) col = std::make_shared<const ColorImage>(toColorImage(img, false));
+      m.baseColor = col;
+      if (m.alphaTested()) {
+        auto& a = alphaCache[{tex.source, m.baseColorFactor[3]}];
+        if (!a)
+          a = std::make_shared<const AlphaTexture>(
+              toAlphaTexture(img, AlphaChannel::AlphaOrOne, m.baseColorFactor[3], false));
+        m.alpha = a;
+        info.alphaFromTexture = true;
+      }
+    }
+    scene_.materials.push_back(std::move(m));
+    matInfo_.push_back(info);
+  }
+  images_.clear();  // decoded images are no longer needed
+  return Ok{};
+}
+
+Status GltfLoader::loadGeometries() {
+  size_t skipped = 0, dropped = 0;
+  for (size_t mi = 0; mi < model_.meshes.size(); ++mi) {
+    const tinygltf::Mesh& mesh = model_.meshes[mi];
+    firstGeometry_.push_back(uint32_t(scene_.geometries.size()));
+    const std::string meshName = mesh.name.empty() ? "mesh" + std::to_string(mi) : mesh.name;
+    for (size_t pi = 0; pi < mesh.primitives.size(); ++pi) {
+      const tinygltf::Primitive& prim = mesh.primitives[pi];
+      Geometry g;
+      g.name = meshName + "/" + std::to_string(pi);
+      const std::string what = "mesh '" + meshName + "' primitive " + std::to_string(pi);
+      if (prim.material >= 0) {
+        if (size_t(prim.material) >= scene_.materials.size())
+          return fail(ErrorCode::CorruptFile,
+                      what + ": material " + std::to_string(prim.material) + " does not exist");
+        g.material = uint32_t(prim.material);
+      } else {
+        if (defaultMaterial_ < 0) {
+          defaultMaterial_ = int(scene_.materials.size());
+          Material d;
+          d.name = "default";
+          scene_.materials.push_back(d);
+          matInfo_.push_back(MatInfo{});
+        }
+        g.material = uint32_t(defaultMaterial_);
+      }
+      const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
+      if (mode != TINYGLTF_MODE_TRIANGLES) {
+        ++skipped;
+        scene_.warnings.push_back(what + ": primitive mode " + std::to_string(mode) +
+                                  " is not TRIANGLES, skipped (empty geometry " +
+                                  std::to_string(scene_.geometries.size()) + ")");
+        scene_.geometries.push_back(std::move(g));
+        continue;
+      }
+      auto posIt = prim.attributes.find("POSITION");
+      if (posIt == prim.attributes.end())
+        return fail(ErrorCode::CorruptFile, what + ": no POSITION attribute");
+      auto pos = view(posIt->second, what + " POSITION", TINYGLTF_TYPE_VEC3);
+      if (!pos.ok()) return pos.error();
+      const size_t n = pos->count;
+      if (n > 0xFFFFFFFFu) return fail(ErrorCode::LimitExceeded, what + ": too many vertices");
+      g.positions.resize(n * 3);
+      for (size_t i = 0; i < n; ++i)
+        for (int c = 0; c < 3; ++c) g.positions[i * 3 + size_t(c)] = float(pos->component(i, c));
+
+      const MatInfo& info = matInfo_[g.material];
+      g.uvs.assign(n * 2, 0.0f);
+      const std::string uvName = "TEXCOORD_" + std::to_string(info.texCoord);
+      auto uvIt = prim.attributes.find(uvName);
+      if (uvIt != prim.attributes.end()) {
+        auto uv = view(uvIt->second, what + " " + uvName, TINYGLTF_TYPE_VEC2);
+        if (!uv.ok()) return uv.error();
+        if (uv->count < n)
+          return fail(ErrorCode::CorruptFile, what + ": " + uvName + " has " + std::to_string(uv->count) +
+                                                  " elements for " + std::to_string(n) + " vertices");
+        for (size_t i = 0; i < n; ++i) {
+          double u = uv->component(i, 0), v = uv->component(i, 1);
+          if (info.transform) {
+            const double u2 = info.m[0] * u + info.m[1] * v + info.m[2];
+            const double v2 = info.m[3] * u + info.m[4] * v + info.m[5];
+            u = u2, v = v2;
+          }
+          g.uvs[i * 2] = float(u), g.uvs[i * 2 + 1] = float(v);
+        }
+      } else if (info.alphaFromTexture) {
+        scene_.warnings.push_back(what + ": no " + uvName + " for its alpha texture; UVs set to 0");
+      }
+
+      if (prim.indices >= 0) {
+        auto idx = view(prim.indices, what + " indices", TINYGLTF_TYPE_SCALAR);
+        if (!idx.ok()) return idx.error();
+        if (idx->componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
+            idx->componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+            idx->componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
+          return fail(ErrorCode::CorruptFile, what + ": indices have component type " +
+                                                  std::to_string(idx->componentType) + " (must be unsigned)");
+        if (!idx->base && idx->count > 0)
+          return fail(ErrorCode::CorruptFile, what + ": index accessor has no buffer view");
+        const size_t m = idx->count - idx->count % 3;
+        if (m != idx->count) ++dropped;
+        g.indices.resize(m);
+        for (size_t i = 0; i < m; ++i) {
+          const uint32_t k = idx->index(i);
+          if (k >= n)
+            return fail(ErrorCode::CorruptFile, what + ": index " + std::to_string(k) + " at position " +
+                                                    std::to_string(i) + " is out of range (" +
+                                                    std::to_string(n) + " vertices)");
+          g.indices[i] = k;
+        }
+      } else {
+        const size_t m = n - n % 3;
+        if (m != n) ++dropped;
+        g.indices.resize(m);
+        for (size_t i = 0; i < m; ++i) g.indices[i] = uint32_t(i);
+      }
+      scene_.geometries.push_back(std::move(g));
+    }
+  }
+  if (dropped)
+    scene_.warnings.push_back(
+        std::to_string(dropped) +
+        " primitive(s) have a vertex/index count not divisible by 3; trailing indices dropped");
+  (void)skipped;
+  return Ok{};
+}
+
+Status GltfLoader::loadInstances() {
+  std::vector<int> roots;
+  if (!model_.scenes.empty()) {
+    const size_t s = model_.defaultScene >= 0 && size_t(model_.defaultScene) < model_.scenes.size()
+                         ? size_t(model_.defaultScene)
+                         : 0;
+    roots = model_.scenes[s].nodes;
+  } else {
+    std::vector<char> isChild(model_.nodes.size(), 0);
+    for (const auto& n : model_.nodes)
+      for (int c : n.children)
+        if (c >= 0 && size_t(c) < model_.nodes.size()) isChild[size_t(c)] = 1;
+    for (size_t i = 0; i < model_.nodes.size(); ++i)
+      if (!isChild[i]) roots.push_back(int(i));
+  }
+  std::vector<char> onPath(model_.nodes.size(), 0);
+  size_t visits = 0;
+  bool cameraSet = false;
+  // Depth-first, pre-order, children in order.
+  struct Frame {
+    int node;
+    Mat4 world;
+    size_t next;  // next child to visit
+  };
+  for (int root : roots) {
+    std::vector<Frame> stack;
+    auto enter = [&](int node, const Mat4& parent) -> Status {
+      if (node < 0 || size_t(node) >= model_.nodes.size())
+        return fail(ErrorCode::CorruptFile, "node " + std::to_string(node) + " does not exist");
+      if (onPath[size_t(node)])
+        return fail(ErrorCode::CorruptFile, "node hierarchy has a cycle at node " + std::to_string(node));
+      if (++visits > 10000000) return fail(ErrorCode::LimitExceeded, "node hierarchy too large");
+      const tinygltf::Node& n = model_.nodes[size_t(node)];
+      const Mat4 world = mul(parent, localTransform(n));
+      if (n.mesh >= 0) {
+        if (size_t(n.mesh) >= model_.meshes.size())
+          return fail(ErrorCode::CorruptFile, "node " + std::to_string(node) + ": mesh " +
+                                                  std::to_string(n.mesh) + " does not exist");
+        const size_t prims = model_.meshes[size_t(n.mesh)].primitives.size();
+        for (size_t p = 0; p < prims; ++p) {
+          Instance inst;
+          inst.geometry = firstGeometry_[size_t(n.mesh)] + uint32_t(p);
+          for (int k = 0; k < 16; ++k) inst.transform[size_t(k)] = float(world[size_t(k)]);
+          scene_.instances.push_back(inst);
+        }
+      }
+      if (!cameraSet && n.camera >= 0 && size_t(n.camera) < model_.cameras.size()) {
+        cameraSet = true;
+        const tinygltf::Camera& gc = model_.cameras[size_t(n.camera)];
+        Camera cam;
+        const double ex = world[12], ey = world[13], ez = world[14];
+        double fx = -world[8], fy = -world[9], fz = -world[10];  // -Z axis
+        const double fl = std::sqrt(fx * fx + fy * fy + fz * fz);
+        if (fl > 0) fx /= fl, fy /= fl, fz /= fl;
+        double ux = world[4], uy = world[5], uz = world[6];
+        const double ul = std::sqrt(ux * ux + uy * uy + uz * uz);
+        if (ul > 0) ux /= ul, uy /= ul, uz /= ul;
+        cam.eye = {float(ex), float(ey), float(ez)};
+        cam.target = {float(ex + fx), float(ey + fy), float(ez + fz)};
+        cam.up = {float(ux), float(uy), float(uz)};
+        if (gc.type == "perspective" && gc.perspective.yfov > 0)
+          cam.yfovRadians = float(gc.perspective.yfov);
+        else
+          scene_.warnings.push_back("camera " + std::to_string(n.camera) +
+                                    " is not a perspective camera; default field of view used");
+        scene_.camera = cam;
+      }
+      onPath[size_t(node)] = 1;
+      stack.push_back(Frame{node, world, 0});
+      return Ok{};
+    };
+    Status st = enter(root, kIdentity);
+    if (!st.ok()) return st;
+    while (!stack.empty()) {
+      Frame& f = stack.back();
+      const auto& children = model_.nodes[size_t(f.node)].children;
+      if (f.next < children.size()) {
+        const int child = children[f.next++];
+        const Mat4 world = f.world;  // f may move when the stack grows
+        st = enter(child, world);
+        if (!st.ok()) return st;
+      } else {
+        onPath[size_t(f.node)] = 0;
+        stack.pop_back();
+      }
+    }
+  }
+  return Ok{};
+}
+
+Result<Scene> GltfLoader::run(bool binary) {
+  tinygltf::TinyGLTF loader;
+  loader.SetImageLoader(&keepEncoded, nullptr);
+  tinygltf::FsCallbacks fs{&tinygltf::FileExists, &noExpand, &tinygltf::ReadWholeFile,
+                           &tinygltf::WriteWholeFile, nullptr};
+  loader.SetFsCallbacks(fs);
+  std::string err, warn;
+  bool ok = false;
+  try {
+    ok = binary ? loader.LoadBinaryFromFile(&model_, &err, &warn, path_)
+                : loader.LoadASCIIFromFile(&model_, &err, &warn, path_);
+  } catch (const std::exception& e) {
+    err = std::string("parser exception: ") + e.what();
+    ok = false;
+  }
+  if (!ok) {
+    std::string msg = oneLine(err);
+    if (msg.empty()) msg = oneLine(warn);
+    if (msg.empty()) msg = "cannot parse glTF";
+    return fail(ErrorCode::CorruptFile, msg);
+  }
+  splitLines(warn, scene_.warnings);
+  scene_.sourcePath = path_;
+  Status st = loadMaterials();
+  if (!st.ok()) return st.error();
+  st = loadGeometries();
+  if (!st.ok()) return st.error();
+  st = loadInstances();
+  if (!st.ok()) return st.error();
+  return std::move(scene_);
+}
+
+}  // namespace
+
+Result<Scene> loadGltf(const std::string& path, bool binary, const LoadOptions& options) {
+  GltfLoader loader(path, options);
+  return loader.run(binary);
+}
+
+}  // namespace somm::detail

@@ -1,0 +1,168 @@
+// somm — image decoding via stb_image (implementation in the Debian libstb).
+#include "image_io.h"
+
+#include <stb_image.h>
+
+#include <algorithm>
+#include <climits>
+#include <cmath>
+#include <fstream>
+#include <iterator>
+#include <memory>
+
+namespace somm::detail {
+
+namespace {
+
+// Limit on decoded texels × channels we accept (1 Gi values = 2 GiB of 16-bit samples).
+constexpr uint64_t kMaxSamples = uint64_t(1) << 30;
+
+struct StbiFree {
+  void operator()(void* p) const noexcept { stbi_image_free(p); }
+};
+
+}  // namespace
+
+Result<RawImage> decodeImage(const uint8_t* data, size_t size) {
+  if (size == 0) return makeError(ErrorCode::CorruptFile, "empty image data");
+  if (size > size_t(INT_MAX)) return makeError(ErrorCode::LimitExceeded, "image data larger than 2 GiB");
+  const int n = int(size);
+  int w = 0, h = 0, comp = 0;
+  if (!stbi_info_from_memory(data, n, &w, &h, &comp)) {
+    const char* why = stbi_failure_reason();
+    return makeError(ErrorCode::CorruptFile,
+                     std::string("cannot decode image (") + (why ? why : "unknown format") + ")");
+  }
+  if (w < 1 || h < 1 || comp < 1 || comp > 4)
+    return makeError(ErrorCode::CorruptFile, "image has invalid dimensions or channel count");
+  if (uint64_t(w) * uint64_t(h) * uint64_t(comp) > kMaxSamples)
+    return makeError(ErrorCode::LimitExceeded, "image of " + std::to_string(w) + "x" + std::to_string(h) +
+                                                   " texels is larger than supported");
+  RawImage img;
+  const bool is16 = stbi_is_16_bit_from_memory(data, n) != 0;
+  int w2 = 0, h2 = 0, c2 = 0;
+  if (is16) {
+    std::unique_ptr<stbi_us, StbiFree> p(stbi_load_16_from_memory(data, n, &w2, &h2, &c2, 0));
+    if (!p) {
+      const char* why = stbi_failure_reason();
+      return makeError(ErrorCode::CorruptFile,
+                       std::string("cannot decode image (") + (why ? why : "?") + ")");
+    }
+    img.width = uint32_t(w2), img.height = uint32_t(h2), img.channels = uint32_t(c2), img.sixteenBit = true;
+    img.px.assign(p.get(), p.get() + size_t(w2) * size_t(h2) * size_t(c2));
+  } else {
+    std::unique_ptr<stbi_uc, StbiFree> p(stbi_load_from_memory(data, n, &w2, &h2, &c2, 0));
+    if (!p) {
+      const char* why = stbi_failure_reason();
+      return makeError(ErrorCode::CorruptFile,
+                       std::string("cannot decode image (") + (why ? why : "?") + ")");
+    }
+    img.width = uint32_t(w2), img.height = uint32_t(h2), img.channels = uint32_t(c2);
+    const size_t count = size_t(w2) * size_t(h2) * size_t(c2);
+    img.px.resize(count);
+    const stbi_uc* s = p.get();
+    for (size_t i = 0; i < count; ++i) img.px[i] = uint16_t(s[i] * 257u);
+  }
+  if (img.width != uint32_t(w) || img.height != uint32_t(h) || img.channels < 1 || img.channels > 4)
+    return makeError(ErrorCode::CorruptFile, "image decoder returned inconsistent dimensions");
+  return img;
+}
+
+Result<RawImage> readImageFile(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) return makeError(ErrorCode::IoError, "cannot open file");
+  std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  if (f.bad()) return makeError(ErrorCode::IoError, "cannot read file");
+  return decodeImage(bytes.data(), bytes.size());
+}
+
+AlphaTexture toAlphaTexture(const RawImage& img, AlphaChannel channel, float factor, bool flipRows) {
+  AlphaTexture t;
+  t.width = img.width;
+  t.height = img.height;
+  t.alpha.resize(size_t(img.width) * img.height);
+  const uint32_t nc = img.channels;
+  const bool hasAlpha = img.hasAlpha();
+  const bool colour = nc >= 3;
+  for (uint32_t y = 0; y < img.height; ++y) {
+    const uint32_t sy = flipRows ? img.height - 1 - y : y;
+    for (uint32_t x = 0; x < img.width; ++x) {
+      const uint16_t* p = &img.px[(size_t(sy) * img.width + x) * nc];
+      double v = 1.0;  // in [0, 65535] units below, except for this default
+      auto lum = [&]() -> double {
+        if (!colour) return p[0];
+        return 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
+      };
+      switch (channel) {
+        case AlphaChannel::AlphaOrOne:
+          v = hasAlpha ? p[nc - 1] : 65535.0;
+          break;
+        case AlphaChannel::AlphaOrLuminance:
+          v = hasAlpha ? double(p[nc - 1]) : lum();
+          break;
+        case AlphaChannel::Red:
+          v = p[0];
+          break;
+        case AlphaChannel::Green:
+          v = colour ? p[1] : p[0];
+          break;
+        case AlphaChannel::Blue:
+          v = colour ? p[2] : p[0];
+          break;
+        case AlphaChannel::Luminance:
+          v = lum();
+          break;
+      }
+      float a = float(v / 65535.0);
+      if (factor != 1.0f) a *= factor;
+      a = std::clamp(a, 0.0f, 1.0f);
+      t.alpha[size_t(y) * img.width + x] = a;
+    }
+  }
+  return t;
+}
+
+ColorImage toColorImage(const RawImage& img, bool flipRows) {
+  ColorImage c;
+  c.width = img.width;
+  c.height = img.height;
+  c.rgba.resize(size_t(img.width) * img.height * 4);
+  const uint32_t nc = img.channels;
+  auto to8 = [](uint16_t v) { return uint8_t((uint32_t(v) * 255u + 32767u) / 65535u); };
+  for (uint32_t y = 0; y < img.height; ++y) {
+    const uint32_t sy = flipRows ? img.height - 1 - y : y;
+    for (uint32_t x = 0; x < img.width; ++x) {
+      const uint16_t* p = &img.px[(size_t(sy) * img.width + x) * nc];
+      uint8_t* o = &c.rgba[(size_t(y) * img.width + x) * 4];
+      if (nc >= 3) {
+        o[0] = to8(p[0]), o[1] = to8(p[1]), o[2] = to8(p[2]);
+        o[3] = nc == 4 ? to8(p[3]) : 255;
+      } else {
+        o[0] = o[1] = o[2] = to8(p[0]);
+        o[3] = nc == 2 ? to8(p[1]) : 255;
+      }
+    }
+  }
+  return c;
+}
+
+std::string oneLine(std::string s) {
+  std::string out;
+  out.reserve(s.size());
+  bool pendingSep = false;
+  for (char ch : s) {
+    if (ch == '\n' || ch == '\r') {
+      pendingSep = !out.empty();
+      continue;
+    }
+    if (pendingSep) {
+      out += "; ";
+      pendingSep = false;
+    }
+    out += ch;
+  }
+  while (!out.empty() && (out.back() == ' ' || out.back() == ';')) out.pop_back();
+  return out;
+}
+
+}  // namespace somm::detail

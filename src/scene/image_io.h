@@ -1,0 +1,51 @@
+// somm — image decoding for the scene loaders (stb_image): any of PNG/JPEG/TGA/BMP, 8 or 16 bit, 1–4
+// channels.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "somm/result.h"
+#include "somm/scene.h"
+#include "somm/texture.h"
+
+namespace somm::detail {
+
+// A decoded image, rows top to bottom as stored in the file, every channel widened to 16 bits (8-bit v →
+// v·257, so v/65535 is exactly v/255).
+struct RawImage {
+  uint32_t width = 0, height = 0, channels = 0;  // channels: 1 grey, 2 grey+alpha, 3 RGB, 4 RGBA
+  bool sixteenBit = false;
+  std::vector<uint16_t> px;  // width * height * channels
+  uint16_t at(uint32_t x, uint32_t y, uint32_t c) const noexcept {
+    return px[(size_t(y) * width + x) * channels + c];
+  }
+  bool hasAlpha() const noexcept { return channels == 2 || channels == 4; }
+};
+
+// Decodes an encoded image held in memory. The error message is the reason only (the caller adds context).
+Result<RawImage> decodeImage(const uint8_t* data, size_t size);
+// Reads and decodes an image file. The error message is the reason only.
+Result<RawImage> readImageFile(const std::string& path);
+
+// Which value of an image is the alpha.
+enum class AlphaChannel : uint8_t {
+  AlphaOrOne,        // glTF: the alpha channel, 1 when the image has none
+  AlphaOrLuminance,  // OBJ map_d default / -imfchan m: the alpha channel, else the luminance
+  Red,
+  Green,
+  Blue,
+  Luminance,  // Rec. 709 weights (grey images: the grey value)
+};
+
+// Alpha texture of an image: value × factor, clamped to [0, 1]. flipRows: texture row y = image row H-1-y
+// (OBJ).
+AlphaTexture toAlphaTexture(const RawImage& img, AlphaChannel channel, float factor, bool flipRows);
+// RGBA8 colour image (grey expanded, missing alpha = 255, 16 bit rounded to 8).
+ColorImage toColorImage(const RawImage& img, bool flipRows);
+
+// Replaces line breaks by "; " and trims, so library messages stay one line.
+std::string oneLine(std::string s);
+
+}  // namespace somm::detail

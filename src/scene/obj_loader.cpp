@@ -1,0 +1,280 @@
+// somm — Wavefront OBJ/MTL loading via tinyobjloader.
+//
+// Geometries: one per (shape, material) in order of first appearance, triangles in file order, polygons
+// fanned (v0, vk, vk+1). The alpha mask of a material: map_d (by -imfchan: m or none = the alpha channel when
+// the image has one, else the luminance; l = luminance; r/g/b = that channel), else the alpha channel of
+// map_Kd when it has one, else none (opaque; the dissolve `d` is ignored). Textures repeat unless `-clamp
+// on`; filter linear; cutoff 0.5. OBJ's v = 0 is the bottom image row, so image rows are flipped on load and
+// UVs are kept as they are.
+#include <tiny_obj_loader.h>
+
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <unordered_map>
+
+#include "image_io.h"
+#include "loaders.h"
+
+namespace somm::detail {
+
+namespace {
+
+void splitLines(const std::string& text, const std::string& prefix, std::vector<std::string>& out) {
+  size_t start = 0;
+  while (start < text.size()) {
+    size_t end = text.find('\n', start);
+    if (end == std::string::npos) end = text.size();
+    std::string line = text.substr(start, end - start);
+    while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
+    if (!line.empty()) out.push_back(prefix + line);
+    start = end + 1;
+  }
+}
+
+class ObjLoader {
+ public:
+  ObjLoader(std::string path, const LoadOptions& opts) : path_(std::move(path)), opts_(opts) {}
+  Result<Scene> run();
+
+ private:
+  Error fail(ErrorCode code, const std::string& what) const { return makeError(code, path_ + ": " + what); }
+  Result<std::shared_ptr<const RawImage>> image(const std::string& texname, const std::string& material,
+                                                std::string& resolved);
+  Status material(const tinyobj::material_t& tm, Material& m);
+
+  std::string path_;
+  LoadOptions opts_;
+  std::filesystem::path dir_;
+  Scene scene_;
+  std::map<std::string, std::shared_ptr<const RawImage>> images_;
+};
+
+Result<std::shared_ptr<const RawImage>> ObjLoader::image(const std::string& texname,
+                                                         const std::string& material, std::string& resolved) {
+  std::filesystem::path p(texname);
+  if (p.is_relative()) p = dir_ / p;
+  resolved = p.string();
+  auto it = images_.find(resolved);
+  if (it != images_.end()) return it->second;
+  Result<RawImage> raw = readImageFile(resolved);
+  if (!raw.ok() && raw.error().code == ErrorCode::IoError && texname.find('\\') != std::string::npos) {
+    std::string alt = texname;
+    for (char& c : alt)
+      if (c == '\\') c = '/';
+    std::filesystem::path q(alt);
+    if (q.is_relative()) q = dir_ / q;
+    Result<RawImage> raw2 = readImageFile(q.string());
+    if (raw2.ok()) {
+      raw = std::move(raw2);
+      resolved = q.string();
+    }
+  }
+  if (!raw.ok())
+    return fail(raw.error().code,
+                "material '" + material + "': texture '" + resolved + "': " + raw.error().message);
+  auto sp = std::make_shared<const RawImage>(std::move(raw.value()));
+  images_[resolved] = sp;
+  return sp;
+}
+
+Status ObjLoader::material(const tinyobj::material_t& tm, Material& m) {
+  m.name = tm.name;
+  m.doubleSided = true;  // OBJ has no culling information
+  m.baseColorFactor = {float(tm.diffuse[0]), float(tm.diffuse[1]), float(tm.diffuse[2]), 1.0f};
+  m.sampler.filter = Filter::Linear;
+  m.alphaCutoff = 0.5f;
+  auto checkOptions = [&](const tinyobj::texture_option_t& o, const char* what) {
+    if (o.origin_offset[0] != 0 || o.origin_offset[1] != 0 || o.scale[0] != 1 || o.scale[1] != 1)
+      scene_.warnings.push_back("material '" + m.name + "': " + what + " -o/-s options are ignored");
+  };
+  std::shared_ptr<const RawImage> kd;
+  std::string kdPath;
+  if (!tm.diffuse_texname.empty()) {
+    auto r = image(tm.diffuse_texname, m.name, kdPath);
+    if (!r.ok()) return r.error();
+    kd = r.value();
+    m.baseColor = std::make_shared<const ColorImage>(toColorImage(*kd, true));
+  }
+  if (!tm.alpha_texname.empty()) {
+    std::string dPath;
+    auto r = image(tm.alpha_texname, m.name, dPath);
+    if (!r.ok()) return r.error();
+    AlphaChannel ch = AlphaChannel::AlphaOrLuminance;
+    switch (tm.alpha_texopt.imfchan) {
+      case 'r':
+        ch = AlphaChannel::Red;
+        break;
+      case 'g':
+        ch = AlphaChannel::Green;
+        break;
+      case 'b':
+        ch = AlphaChannel::Blue;
+        break;
+      case 'l':
+        ch = AlphaChannel::Luminance;
+        break;
+      case 'm':
+        ch = AlphaChannel::AlphaOrLuminance;
+        break;
+      default:
+        scene_.warnings.push_back("material '" + m.name + "': map_d -imfchan '" +
+                                  std::string(1, tm.alpha_texopt.imfchan) + "' unsupported, luminance used");
+        ch = AlphaChannel::Luminance;
+    }
+    m.alpha = std::make_shared<const AlphaTexture>(toAlphaTexture(*r.value(), ch, 1.0f, true));
+    m.alphaSource = dPath;
+    const Wrap w = tm.alpha_texopt.clamp ? Wrap::ClampToEdge : Wrap::Repeat;
+    m.sampler.wrapS = m.sampler.wrapT = w;
+    m.alphaMode = AlphaMode::Mask;
+    checkOptions(tm.alpha_texopt, "map_d");
+  } else if (kd && kd->hasAlpha()) {
+    m.alpha = std::make_shared<const AlphaTexture>(toAlphaTexture(*kd, AlphaChannel::AlphaOrOne, 1.0f, true));
+    m.alphaSource = kdPath;
+    const Wrap w = tm.diffuse_texopt.clamp ? Wrap::ClampToEdge : Wrap::Repeat;
+    m.sampler.wrapS = m.sampler.wrapT = w;
+    m.alphaMode = AlphaMode::Mask;
+    checkOptions(tm.diffuse_texopt, "map_Kd");
+  } else {
+    m.alphaMode = AlphaMode::Opaque;
+    if (kd) {
+      const Wrap w = tm.diffuse_texopt.clamp ? Wrap::ClampToEdge : Wrap::Repeat;
+      m.sampler.wrapS = m.sampler.wrapT = w;
+    }
+    if (tm.dissolve < 1.0)
+      scene_.warnings.push_back("material '" + m.name +
+                                "': dissolve d < 1 without an alpha texture is ignored (opaque)");
+  }
+  return Ok{};
+}
+
+Result<Scene> ObjLoader::run() {
+  dir_ = std::filesystem::path(path_).parent_path();
+  tinyobj::ObjReaderConfig cfg;
+  cfg.triangulate = false;
+  cfg.vertex_color = false;
+  cfg.mtl_search_path = dir_.empty() ? std::string("./") : dir_.string() + "/";
+  tinyobj::ObjReader reader;
+  bool ok = false;
+  try {
+    ok = reader.ParseFromFile(path_, cfg);
+  } catch (const std::exception& e) {
+    return fail(ErrorCode::ParseError, std::string("parser exception: ") + e.what());
+  }
+  if (!ok) {
+    std::string msg = oneLine(reader.Error());
+    return fail(ErrorCode::ParseError, msg.empty() ? "cannot parse OBJ" : msg);
+  }
+  splitLines(reader.Warning(), "", scene_.warnings);
+  const tinyobj::attrib_t& attrib = reader.GetAttrib();
+  const auto& shapes = reader.GetShapes();
+  const auto& mats = reader.GetMaterials();
+  scene_.sourcePath = path_;
+  for (const auto& tm : mats) {
+    Material m;
+    Status st = material(tm, m);
+    if (!st.ok()) return st.error();
+    scene_.materials.push_back(std::move(m));
+  }
+  images_.clear();
+  int defaultMaterial = -1;
+  const size_t nv = attrib.vertices.size() / 3, nt = attrib.texcoords.size() / 2;
+
+  struct Builder {
+    std::unordered_map<uint64_t, uint32_t> remap;
+  };
+  std::map<std::pair<size_t, int>, uint32_t> geometryOf;
+  std::vector<Builder> builders;
+  size_t degenerate = 0;
+  for (size_t si = 0; si < shapes.size(); ++si) {
+    const tinyobj::mesh_t& mesh = shapes[si].mesh;
+    size_t offset = 0;
+    for (size_t f = 0; f < mesh.num_face_vertices.size(); ++f) {
+      const size_t n = mesh.num_face_vertices[f];
+      if (offset + n > mesh.indices.size()) return fail(ErrorCode::ParseError, "inconsistent face data");
+      int mat = f < mesh.material_ids.size() ? mesh.material_ids[f] : -1;
+      if (mat >= int(mats.size())) mat = -1;
+      if (n < 3) {
+        ++degenerate;
+        offset += n;
+        continue;
+      }
+      auto key = std::make_pair(si, mat);
+      auto it = geometryOf.find(key);
+      if (it == geometryOf.end()) {
+        Geometry g;
+        const std::string shapeName =
+            shapes[si].name.empty() ? "shape" + std::to_string(si) : shapes[si].name;
+        if (mat < 0) {
+          if (defaultMaterial < 0) {
+            defaultMaterial = int(scene_.materials.size());
+            Material d;
+            d.name = "default";
+            scene_.materials.push_back(d);
+          }
+          g.material = uint32_t(defaultMaterial);
+        } else {
+          g.material = uint32_t(mat);
+        }
+        g.name = shapeName + "/" + scene_.materials[g.material].name;
+        it = geometryOf.emplace(key, uint32_t(scene_.geometries.size())).first;
+        scene_.geometries.push_back(std::move(g));
+        builders.emplace_back();
+      }
+      Geometry& g = scene_.geometries[it->second];
+      Builder& b = builders[it->second];
+      uint32_t local[3] = {0, 0, 0};
+      for (size_t k = 0; k < n; ++k) {
+        const tinyobj::index_t& ix = mesh.indices[offset + k];
+        if (ix.vertex_index < 0 || size_t(ix.vertex_index) >= nv)
+          return fail(ErrorCode::ParseError, "face " + std::to_string(f) + " of shape '" + shapes[si].name +
+                                                 "' refers to vertex " + std::to_string(ix.vertex_index + 1) +
+                                                 " but the file has " + std::to_string(nv));
+        if (ix.texcoord_index >= 0 && size_t(ix.texcoord_index) >= nt)
+          return fail(ErrorCode::ParseError, "face " + std::to_string(f) + " of shape '" + shapes[si].name +
+                                                 "' refers to texture coordinate " +
+                                                 std::to_string(ix.texcoord_index + 1) +
+                                                 " but the file has " + std::to_string(nt));
+        const uint64_t vkey = (uint64_t(uint32_t(ix.vertex_index)) << 32) | uint32_t(ix.texcoord_index);
+        auto [vit, inserted] = b.remap.emplace(vkey, uint32_t(g.positions.size() / 3));
+        if (inserted) {
+          const size_t v = size_t(ix.vertex_index);
+          g.positions.insert(g.positions.end(), {attrib.vertices[3 * v], attrib.vertices[3 * v + 1],
+                                                 attrib.vertices[3 * v + 2]});
+          if (ix.texcoord_index >= 0) {
+            const size_t t = size_t(ix.texcoord_index);
+            g.uvs.insert(g.uvs.end(), {attrib.texcoords[2 * t], attrib.texcoords[2 * t + 1]});
+          } else {
+            g.uvs.insert(g.uvs.end(), {0.0f, 0.0f});
+          }
+        }
+        const uint32_t li = vit->second;
+        if (k == 0) {
+          local[0] = li;
+        } else if (k == 1) {
+          local[1] = li;
+        } else {
+          local[2] = li;
+          g.indices.insert(g.indices.end(), {local[0], local[1], local[2]});
+          local[1] = li;
+        }
+      }
+      offset += n;
+    }
+  }
+  if (degenerate)
+    scene_.warnings.push_back(std::to_string(degenerate) + " face(s) with fewer than 3 vertices skipped");
+  for (uint32_t g = 0; g < scene_.geometries.size(); ++g) scene_.instances.push_back(Instance{g, {}});
+  (void)opts_;
+  return std::move(scene_);
+}
+
+}  // namespace
+
+Result<Scene> loadObj(const std::string& path, const LoadOptions& options) {
+  ObjLoader loader(path, options);
+  return loader.run();
+}
+
+}  // namespace somm::detail

@@ -1,0 +1,46 @@
+// somm — scene loading entry point: dispatch by extension, common checks.
+#include "somm/scene.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <system_error>
+
+#include "loaders.h"
+
+namespace somm {
+
+Result<Scene> loadScene(const std::string& path, const LoadOptions& options) {
+  std::error_code ec;
+  const std::filesystem::path p(path);
+  if (!std::filesystem::exists(p, ec))
+    return makeError(ErrorCode::IoError, path + ": cannot open file (no such file)");
+  if (!std::filesystem::is_regular_file(p, ec))
+    return makeError(ErrorCode::IoError, path + ": not a regular file");
+  std::string ext = p.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  Result<Scene> r = makeError(ErrorCode::UnsupportedFormat, "");
+  if (ext == ".gltf")
+    r = detail::loadGltf(path, false, options);
+  else if (ext == ".glb")
+    r = detail::loadGltf(path, true, options);
+  else if (ext == ".obj")
+    r = detail::loadObj(path, options);
+  else
+    return makeError(ErrorCode::UnsupportedFormat,
+                     path + ": unknown scene format '" + ext + "' (expected .gltf, .glb or .obj)");
+  if (!r.ok()) return r;
+  Scene& s = r.value();
+  size_t badPos = 0, badUv = 0;
+  for (const Geometry& g : s.geometries) {
+    for (float v : g.positions) badPos += !std::isfinite(v);
+    for (float v : g.uvs) badUv += !std::isfinite(v);
+  }
+  if (badPos || badUv)
+    s.warnings.push_back(std::to_string(badPos) + " non-finite position and " + std::to_string(badUv) +
+                         " non-finite texture coordinate components (NaN/inf)");
+  if (s.geometries.empty()) s.warnings.push_back("the scene has no geometry");
+  return r;
+}
+
+}  // namespace somm

@@ -1,0 +1,687 @@
+// somm_trace: Embree scene, any-hit filter functions per method, the render workload.
+#include "somm/trace.h"
+
+#include <embree3/rtcore.h>
+#include <stb_image_write.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+#include "trace_internal.h"
+
+namespace somm {
+
+// ---- small helpers
+// ---------------------------------------------------------------------------------------------------
+
+TraceCounters& TraceCounters::operator+=(const TraceCounters& o) noexcept {
+  primaryRays += o.primaryRays;
+  shadowRays += o.shadowRays;
+  filterCalls += o.filterCalls;
+  textureTests += o.textureTests;
+  micromapLookups += o.micromapLookups;
+  return *this;
+}
+
+std::string MethodSpec::name() const {
+  switch (kind) {
+    case MethodKind::Opaque:
+      return "opaque";
+    case MethodKind::Texture:
+      return "texture";
+    case MethodKind::Bitmask:
+      return "bitmask";
+    case MethodKind::StateOverlay:
+      return "state-overlay";
+    case MethodKind::Omm:
+      return std::string(format == Format::TwoState ? "omm2-" : "omm4-") + encoding;
+  }
+  return "?";
+}
+
+std::vector<std::string> traceEncodings() {
+  return detail::encodingNames();
+}
+
+Result<MethodSpec> parseMethod(std::string_view name) {
+  MethodSpec m;
+  if (name == "opaque")
+    m.kind = MethodKind::Opaque;
+  else if (name == "texture")
+    m.kind = MethodKind::Texture;
+  else if (name == "bitmask")
+    m.kind = MethodKind::Bitmask;
+  else if (name == "state-overlay")
+    m.kind = MethodKind::StateOverlay;
+  else if (name.starts_with("omm2-") || name.starts_with("omm4-")) {
+    m.kind = MethodKind::Omm;
+    m.format = name[3] == '2' ? Format::TwoState : Format::FourState;
+    m.encoding = std::string(name.substr(5));
+    const auto encs = traceEncodings();
+    if (std::find(encs.begin(), encs.end(), m.encoding) == encs.end()) {
+      std::string list;
+      for (const auto& e : encs) list += (list.empty() ? "" : ", ") + e;
+      return makeError(ErrorCode::InvalidArgument, "method '" + std::string(name) + "': unknown encoding '" +
+                                                       m.encoding + "' (have " + list + ")");
+    }
+  } else {
+    return makeError(
+        ErrorCode::InvalidArgument,
+        "unknown method '" + std::string(name) +
+            "' (expected opaque, texture, bitmask, state-overlay, omm2-<encoding> or omm4-<encoding>)");
+  }
+  return m;
+}
+
+double percentPixelsDiffering(const Image& a, const Image& b) noexcept {
+  if (a.width != b.width || a.height != b.height || a.rgba.size() != b.rgba.size()) return 100.0;
+  const size_t n = size_t(a.width) * a.height;
+  if (n == 0) return 0.0;
+  size_t diff = 0;
+  for (size_t i = 0; i < n; ++i)
+    diff += (a.rgba[4 * i] != b.rgba[4 * i] || a.rgba[4 * i + 1] != b.rgba[4 * i + 1] ||
+             a.rgba[4 * i + 2] != b.rgba[4 * i + 2] || a.rgba[4 * i + 3] != b.rgba[4 * i + 3]);
+  return 100.0 * double(diff) / double(n);
+}
+
+Status writePng(const std::string& path, const Image& image) {
+  if (image.width == 0 || image.height == 0 || image.rgba.size() != size_t(image.width) * image.height * 4)
+    return makeError(ErrorCode::InvalidArgument, path + ": empty or malformed image");
+  const std::string tmp = path + ".tmp";
+  if (!stbi_write_png(tmp.c_str(), int(image.width), int(image.height), 4, image.rgba.data(),
+                      int(image.width * 4))) {
+    std::remove(tmp.c_str());
+    return makeError(ErrorCode::IoError, path + ": cannot write PNG");
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    return makeError(ErrorCode::IoError, path + ": cannot rename the temporary file into place");
+  }
+  return Ok{};
+}
+
+// ---- the world
+// -----------------------------------------------------------------------------------------------------
+
+namespace {
+
+using V3 = std::array<float, 3>;
+inline V3 sub(V3 a, V3 b) {
+  return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
+}
+inline V3 add(V3 a, V3 b) {
+  return {a[0] + b[0], a[1] + b[1], a[2] + b[2]};
+}
+inline V3 mul(V3 a, float s) {
+  return {a[0] * s, a[1] * s, a[2] * s};
+}
+inline float dot(V3 a, V3 b) {
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+inline V3 cross(V3 a, V3 b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+inline V3 normalize(V3 a) {
+  const float l = std::sqrt(dot(a, a));
+  return l > 0 ? mul(a, 1.0f / l) : V3{0, 0, 1};
+}
+
+}  // namespace
+
+TraceWorld::~TraceWorld() {
+  if (impl_ && impl_->device) rtcReleaseDevice(impl_->device);
+}
+
+Result<std::shared_ptr<const TraceWorld>> TraceWorld::create(std::shared_ptr<const Scene> scene) {
+  const std::string where = scene->sourcePath.empty() ? std::string("scene") : scene->sourcePath;
+  std::shared_ptr<TraceWorld> w(new TraceWorld());
+  w->scene_ = scene;
+  w->impl_ = std::make_unique<Impl>();
+  Impl& im = *w->impl_;
+  im.device = rtcNewDevice(nullptr);
+  if (!im.device) return makeError(ErrorCode::UnsupportedFormat, "cannot create an Embree device");
+
+  im.geometries.resize(scene->geometries.size());
+  for (size_t g = 0; g < scene->geometries.size(); ++g) {
+    const Geometry& geo = scene->geometries[g];
+    if (geo.material >= scene->materials.size())
+      return makeError(ErrorCode::CorruptFile,
+                       where + ": geometry " + std::to_string(g) + " has no material");
+    const Material& mat = scene->materials[geo.material];
+    const size_t nv = geo.positions.size() / 3;
+    if (geo.positions.size() % 3 != 0 || geo.indices.size() % 3 != 0)
+      return makeError(ErrorCode::CorruptFile,
+                       where + ": geometry " + std::to_string(g) + " has malformed arrays");
+    for (uint32_t i : geo.indices)
+      if (i >= nv)
+        return makeError(ErrorCode::CorruptFile,
+                         where + ": geometry " + std::to_string(g) + " has a vertex index out of range");
+    if (!geo.uvs.empty() && geo.uvs.size() != 2 * nv)
+      return makeError(ErrorCode::CorruptFile,
+                       where + ": geometry " + std::to_string(g) + " has a UV count mismatch");
+    detail::GeometryData& d = im.geometries[g];
+    d.geometry = uint32_t(g);
+    d.indices = geo.indices;
+    d.indices.resize(geo.indices.size() + 4, 0);  // Embree reads buffers with 16-byte loads
+    d.triUVs.resize(size_t(geo.triangleCount()) * 6, 0.0f);
+    if (!geo.uvs.empty())
+      for (size_t t = 0; t < geo.triangleCount(); ++t)
+        for (int k = 0; k < 3; ++k) {
+          d.triUVs[6 * t + 2 * k] = geo.uvs[2 * size_t(geo.indices[3 * t + k])];
+          d.triUVs[6 * t + 2 * k + 1] = geo.uvs[2 * size_t(geo.indices[3 * t + k]) + 1];
+        }
+    d.alpha = mat.alpha && mat.alpha->width > 0 && mat.alpha->height > 0 ? mat.alpha.get() : nullptr;
+    if (d.alpha && d.alpha->alpha.size() != size_t(d.alpha->width) * d.alpha->height)
+      return makeError(ErrorCode::CorruptFile,
+                       where + ": material '" + mat.name + "' has a malformed alpha texture");
+    d.sampler = mat.sampler;
+    d.cutoff = mat.alphaCutoff;
+    d.constantAlpha = mat.baseColorFactor[3];
+    d.alphaTested = mat.alphaTested();
+    d.material = &mat;
+  }
+
+  Bounds b;
+  b.lower = {std::numeric_limits<float>::infinity(), std::numeric_limits<float>::infinity(),
+             std::numeric_limits<float>::infinity()};
+  b.upper = mul(b.lower, -1.0f);
+  for (size_t i = 0; i < scene->instances.size(); ++i) {
+    const Instance& inst = scene->instances[i];
+    if (inst.geometry >= scene->geometries.size())
+      return makeError(ErrorCode::CorruptFile,
+                       where + ": instance " + std::to_string(i) + " names no geometry");
+    const Geometry& geo = scene->geometries[inst.geometry];
+    if (geo.triangleCount() == 0) continue;
+    detail::FlatGeometry f;
+    f.geometry = inst.geometry;
+    f.instance = uint32_t(i);
+    const size_t nv = geo.positions.size() / 3;
+    f.positions.resize(3 * nv + 4, 0.0f);
+    const auto& m = inst.transform;  // column-major
+    for (size_t v = 0; v < nv; ++v) {
+      const float x = geo.positions[3 * v], y = geo.positions[3 * v + 1], z = geo.positions[3 * v + 2];
+      for (int r = 0; r < 3; ++r) {
+        const float p = m[r] * x + m[4 + r] * y + m[8 + r] * z + m[12 + r];
+        f.positions[3 * v + r] = p;
+        if (std::isfinite(p)) {
+          b.lower[r] = std::min(b.lower[r], p);
+          b.upper[r] = std::max(b.upper[r], p);
+        }
+      }
+    }
+    im.flat.push_back(std::move(f));
+  }
+  if (!(b.lower[0] <= b.upper[0])) b = Bounds{};
+  w->bounds_ = b;
+  return std::shared_ptr<const TraceWorld>(std::move(w));
+}
+
+Camera TraceWorld::camera(const RenderSettings& settings) const {
+  if (settings.camera) return *settings.camera;
+  if (scene_->camera) return *scene_->camera;
+  const V3 c = mul(add(bounds_.lower, bounds_.upper), 0.5f);
+  const float radius = std::max(
+      1e-6f, 0.5f * std::sqrt(dot(sub(bounds_.upper, bounds_.lower), sub(bounds_.upper, bounds_.lower))));
+  Camera cam;
+  cam.yfovRadians = 0.8f;
+  const float dist = radius / std::sin(0.5f * cam.yfovRadians) * 1.02f;
+  cam.eye = add(c, mul(normalize({0.45f, 0.2f, 1.0f}), dist));
+  cam.target = c;
+  cam.up = {0, 1, 0};
+  return cam;
+}
+
+// ---- filter functions
+// ----------------------------------------------------------------------------------------------
+
+namespace detail {
+
+struct TraceContext {
+  RTCIntersectContext rtc;  // first member: Embree hands our context back to the filters
+  TraceCounters* counters;
+};
+
+// One filter function per policy: the same function for intersection and occlusion (idempotent, pure in the
+// hit).
+template <class Policy>
+void filterFunction(const RTCFilterFunctionNArguments* args) noexcept {
+  TraceCounters& c = *reinterpret_cast<const TraceContext*>(args->context)->counters;
+  const auto& data = *static_cast<const typename Policy::Data*>(args->geometryUserPtr);
+  const unsigned n = args->N;
+  for (unsigned i = 0; i < n; ++i) {
+    if (args->valid[i] == 0) continue;
+    ++c.filterCalls;
+    const uint32_t prim = RTCHitN_primID(args->hit, n, i);
+    const float u = RTCHitN_u(args->hit, n, i), v = RTCHitN_v(args->hit, n, i);
+    if (!Policy::accept(data, prim, u, v, c)) args->valid[i] = 0;
+  }
+}
+
+struct TexturePolicy {
+  using Data = GeometryData;
+  static bool accept(const Data& d, uint32_t prim, float u, float v, TraceCounters& c) noexcept {
+    ++c.textureTests;
+    return textureTest(d, prim, u, v);
+  }
+};
+
+struct BitmaskPolicy {
+  using Data = BitmaskData;
+  static bool accept(const Data& d, uint32_t prim, float u, float v, TraceCounters& c) noexcept {
+    ++c.micromapLookups;
+    const float n = float(d.n);
+    const float fu = u > 0.0f ? u * n : 0.0f, fv = v > 0.0f ? v * n : 0.0f;  // NaN → 0
+    const uint32_t iu = std::min(uint32_t(fu), d.n - 1), iv = std::min(uint32_t(fv), d.n - 1);
+    const uint32_t cell = iv * d.n + iu;
+    const uint32_t code = (d.masks[size_t(prim) * d.bytesPerTriangle + (cell >> 2)] >> (2 * (cell & 3))) & 3u;
+    if (code == 1) return true;
+    if (code == 0) return false;
+    ++c.textureTests;
+    return textureTest(*d.geometry, prim, u, v);
+  }
+};
+
+template <bool FourState>
+struct FlatOmmPolicy {
+  using Data = FlatOmmData;
+  static bool accept(const Data& d, uint32_t prim, float u, float v, TraceCounters& c) noexcept {
+    ++c.micromapLookups;
+    const int32_t i = d.indices[prim];
+    State s;
+    if (i < 0) {
+      s = stateOfSpecialIndex(i);
+    } else {
+      const TriangleDescriptor& desc = d.descriptors[i];
+      s = readPackedState(d.data + desc.dataOffset, Format(desc.format),
+                          baryToIndex(u, v, desc.subdivisionLevel));
+    }
+    if constexpr (!FourState) {
+      return (uint8_t(s) & 1u) != 0;
+    } else {
+      if (s == State::Opaque) return true;
+      if (s == State::Transparent) return false;
+      ++c.textureTests;
+      return textureTest(*d.geometry, prim, u, v);
+    }
+  }
+};
+
+}  // namespace detail
+
+// ---- tracers
+// -------------------------------------------------------------------------------------------------------
+
+struct TracerFactory {
+  // Builds the Embree scene: every flattened instance, filters on alpha-tested geometries when `filter` is
+  // set; userData[g] is the filter data of scene geometry g.
+  static Result<std::unique_ptr<Tracer>> build(std::shared_ptr<const TraceWorld> world, std::string name,
+                                               uint64_t bytes, RTCFilterFunctionN filter,
+                                               std::vector<void*> userData,
+                                               std::shared_ptr<const void> keepAlive, MethodKind kind,
+                                               std::shared_ptr<const OmmArrays> overlay) {
+    const TraceWorld::Impl& w = world->impl();
+    RTCScene scene = rtcNewScene(w.device);
+    if (!scene) return makeError(ErrorCode::UnsupportedFormat, "cannot create an Embree scene");
+    rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_HIGH);
+    for (size_t id = 0; id < w.flat.size(); ++id) {
+      const detail::FlatGeometry& f = w.flat[id];
+      const detail::GeometryData& gd = w.geometries[f.geometry];
+      const size_t tris = (gd.indices.size() - 4) / 3, verts = (f.positions.size() - 4) / 3;
+      RTCGeometry geom = rtcNewGeometry(w.device, RTC_GEOMETRY_TYPE_TRIANGLE);
+      rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, f.positions.data(), 0,
+                                 3 * sizeof(float), verts);
+      rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, gd.indices.data(), 0,
+                                 3 * sizeof(uint32_t), tris);
+      if (filter && gd.alphaTested) {
+        rtcSetGeometryUserData(geom, userData[f.geometry]);
+        rtcSetGeometryIntersectFilterFunction(geom, filter);
+        rtcSetGeometryOccludedFilterFunction(geom, filter);
+      }
+      rtcCommitGeometry(geom);
+      rtcAttachGeometryByID(scene, geom, unsigned(id));
+      rtcReleaseGeometry(geom);
+    }
+    rtcCommitScene(scene);
+    if (rtcGetDeviceError(w.device) != RTC_ERROR_NONE) {
+      rtcReleaseScene(scene);
+      return makeError(ErrorCode::UnsupportedFormat, "Embree failed to build the scene for method " + name);
+    }
+    std::unique_ptr<Tracer> t(new Tracer());
+    t->name_ = std::move(name);
+    t->bytes_ = bytes;
+    t->impl_ = std::make_unique<Tracer::Impl>();
+    t->impl_->world = std::move(world);
+    t->impl_->scene = scene;
+    t->impl_->keepAlive = std::move(keepAlive);
+    t->impl_->kind = kind;
+    t->impl_->overlay = std::move(overlay);
+    return t;
+  }
+};
+
+Tracer::~Tracer() {
+  if (impl_ && impl_->scene) rtcReleaseScene(impl_->scene);
+}
+
+Result<std::unique_ptr<Tracer>> makeOpaqueTracer(std::shared_ptr<const TraceWorld> world) {
+  return TracerFactory::build(std::move(world), "opaque", 0, nullptr, {}, nullptr, MethodKind::Opaque,
+                              nullptr);
+}
+
+Result<std::unique_ptr<Tracer>> makeTextureTracer(std::shared_ptr<const TraceWorld> world) {
+  std::vector<void*> user;
+  for (const auto& g : world->impl().geometries) user.push_back(const_cast<detail::GeometryData*>(&g));
+  return TracerFactory::build(std::move(world), "texture", 0, &detail::filterFunction<detail::TexturePolicy>,
+                              std::move(user), nullptr, MethodKind::Texture, nullptr);
+}
+
+Result<std::unique_ptr<Tracer>> makeBitmaskTracer(std::shared_ptr<const TraceWorld> world, uint32_t level) {
+  if (level > 10)
+    return makeError(ErrorCode::InvalidArgument, "bitmask level " + std::to_string(level) + " > 10");
+  const auto& geoms = world->impl().geometries;
+  struct Store {
+    std::vector<std::vector<uint8_t>> masks;
+    std::vector<detail::BitmaskData> data;
+  };
+  auto store = std::make_shared<Store>();
+  store->masks.resize(geoms.size());
+  store->data.resize(geoms.size());
+  const uint32_t n = 1u << level;
+  const uint32_t bytesPerTriangle = std::max(1u, n * n / 4);
+  uint64_t bytes = 0;
+  for (size_t g = 0; g < geoms.size(); ++g) {
+    const detail::GeometryData& gd = geoms[g];
+    detail::BitmaskData& bd = store->data[g];
+    bd.geometry = &gd;
+    bd.n = n;
+    bd.bytesPerTriangle = bytesPerTriangle;
+    if (!gd.alphaTested) continue;
+    const size_t tris = gd.triUVs.size() / 6;
+    auto& mask = store->masks[g];
+    mask.assign(tris * bytesPerTriangle, 0);
+    tbb::parallel_for(size_t(0), tris, [&](size_t t) {
+      const float* uv = gd.triUVs.data() + 6 * t;
+      uint8_t* m = mask.data() + t * bytesPerTriangle;
+      const float inv = 1.0f / float(n);
+      for (uint32_t iv = 0; iv < n; ++iv)
+        for (uint32_t iu = 0; iu < n; ++iu) {
+          // The closed square cell (hits clamp into the grid, so cells beyond the diagonal are classified
+          // whole).
+          const float us[4] = {iu * inv, (iu + 1) * inv, iu * inv, (iu + 1) * inv};
+          const float vs[4] = {iv * inv, iv * inv, (iv + 1) * inv, (iv + 1) * inv};
+          const State s = classifyRegion(*gd.material, uv, us, vs, 4);
+          const uint32_t code = s == State::Transparent ? 0u : s == State::Opaque ? 1u : 2u;
+          const uint32_t cell = iv * n + iu;
+          m[cell >> 2] = uint8_t(m[cell >> 2] | (code << (2 * (cell & 3))));
+        }
+    });
+    bd.masks = mask.data();
+    bytes += mask.size();
+  }
+  std::vector<void*> user;
+  for (auto& d : store->data) user.push_back(&d);
+  return TracerFactory::build(std::move(world), "bitmask", bytes,
+                              &detail::filterFunction<detail::BitmaskPolicy>, std::move(user), store,
+                              MethodKind::Bitmask, nullptr);
+}
+
+namespace {
+
+uint64_t flatBytes(const OmmArray& a) {
+  return a.data.size() + a.descriptors.size() * sizeof(TriangleDescriptor) +
+         a.indices.size() * (a.indexType() == IndexType::UInt16 ? 2u : 4u);
+}
+
+Status checkArrays(const TraceWorld& world, const OmmArrays& arrays) {
+  const auto& geoms = world.impl().geometries;
+  if (arrays.size() != geoms.size())
+    return makeError(ErrorCode::InvalidArgument, "micromaps for " + std::to_string(arrays.size()) +
+                                                     " geometries, the scene has " +
+                                                     std::to_string(geoms.size()));
+  for (size_t g = 0; g < geoms.size(); ++g) {
+    if (!geoms[g].alphaTested) continue;
+    const OmmArray& a = arrays[g];
+    const size_t tris = geoms[g].triUVs.size() / 6;
+    if (a.indices.size() != tris)
+      return makeError(ErrorCode::InvalidArgument,
+                       "geometry " + std::to_string(g) + ": micromap index count " +
+                           std::to_string(a.indices.size()) + " != triangle count " + std::to_string(tris));
+    for (int32_t i : a.indices)
+      if (i < -4 || (i >= 0 && size_t(i) >= a.descriptors.size()))
+        return makeError(ErrorCode::InvalidArgument,
+                         "geometry " + std::to_string(g) + ": bad micromap index");
+    for (const auto& d : a.descriptors)
+      if (d.subdivisionLevel > kMaxLevel || !isValidFormat(d.format) ||
+          uint64_t(d.dataOffset) + micromapDataBytes(d.subdivisionLevel, Format(d.format)) > a.data.size())
+        return makeError(ErrorCode::InvalidArgument,
+                         "geometry " + std::to_string(g) + ": bad micromap descriptor");
+  }
+  return Ok{};
+}
+
+Result<std::unique_ptr<Tracer>> makeFlat(std::shared_ptr<const TraceWorld> world,
+                                         std::shared_ptr<const OmmArrays> arrays, Format format,
+                                         bool overlay) {
+  if (Status s = checkArrays(*world, *arrays); !s) return s.error();
+  const auto& geoms = world->impl().geometries;
+  struct Store {
+    std::shared_ptr<const OmmArrays> arrays;
+    std::vector<detail::FlatOmmData> data;
+  };
+  auto store = std::make_shared<Store>();
+  store->arrays = arrays;
+  store->data.resize(geoms.size());
+  uint64_t bytes = 0;
+  for (size_t g = 0; g < geoms.size(); ++g) {
+    detail::FlatOmmData& d = store->data[g];
+    d.geometry = &geoms[g];
+    if (!geoms[g].alphaTested) continue;
+    const OmmArray& a = (*arrays)[g];
+    d.indices = a.indices.data();
+    d.descriptors = a.descriptors.data();
+    d.data = a.data.data();
+    bytes += flatBytes(a);
+  }
+  std::vector<void*> user;
+  for (auto& d : store->data) user.push_back(&d);
+  RTCFilterFunctionN f = format == Format::TwoState ? &detail::filterFunction<detail::FlatOmmPolicy<false>>
+                                                    : &detail::filterFunction<detail::FlatOmmPolicy<true>>;
+  const std::string name =
+      overlay ? "state-overlay" : (format == Format::TwoState ? "omm2-flat" : "omm4-flat");
+  return TracerFactory::build(std::move(world), name, bytes, f, std::move(user), store,
+                              overlay ? MethodKind::StateOverlay : MethodKind::Omm,
+                              overlay ? arrays : nullptr);
+}
+
+}  // namespace
+
+Result<std::unique_ptr<Tracer>> makeFlatOmmTracer(std::shared_ptr<const TraceWorld> world,
+                                                  std::shared_ptr<const OmmArrays> arrays, Format format) {
+  return makeFlat(std::move(world), std::move(arrays), format, false);
+}
+
+Result<std::unique_ptr<Tracer>> makeStateOverlayTracer(std::shared_ptr<const TraceWorld> world,
+                                                       std::shared_ptr<const OmmArrays> arrays) {
+  return makeFlat(std::move(world), std::move(arrays), Format::FourState, true);
+}
+
+// ---- rendering
+// -----------------------------------------------------------------------------------------------------
+
+namespace {
+
+// Base colour at a texture coordinate: nearest texel of the base colour image (sampler wrap) × factor.
+V3 baseColor(const Material& m, float s, float t) {
+  V3 c{m.baseColorFactor[0], m.baseColorFactor[1], m.baseColorFactor[2]};
+  if (m.baseColor && m.baseColor->width > 0 && m.baseColor->height > 0 &&
+      m.baseColor->rgba.size() == size_t(m.baseColor->width) * m.baseColor->height * 4) {
+    const ColorImage& img = *m.baseColor;
+    const uint32_t x = wrapTexel(texelFloor(double(s) * img.width), img.width, m.sampler.wrapS);
+    const uint32_t y = wrapTexel(texelFloor(double(t) * img.height), img.height, m.sampler.wrapT);
+    const uint8_t* p = img.rgba.data() + (size_t(y) * img.width + x) * 4;
+    c = {c[0] * p[0] / 255.0f, c[1] * p[1] / 255.0f, c[2] * p[2] / 255.0f};
+  }
+  return c;
+}
+
+V3 stateColor(State s) {
+  switch (s) {
+    case State::Opaque:
+      return {0.25f, 0.85f, 0.3f};
+    case State::UnknownOpaque:
+      return {1.0f, 0.65f, 0.1f};
+    case State::UnknownTransparent:
+      return {0.95f, 0.25f, 0.2f};
+    case State::Transparent:
+      return {0.9f, 0.2f, 0.9f};
+  }
+  return {0, 0, 0};
+}
+
+}  // namespace
+
+RenderResult Tracer::render(const RenderSettings& settings) const {
+  assert(settings.width > 0 && settings.height > 0 && settings.spp > 0);
+  const TraceWorld& world = *impl_->world;
+  const TraceWorld::Impl& w = world.impl();
+  const Scene& scene = world.scene();
+  const Camera cam = world.camera(settings);
+  const V3 fwd = normalize(sub(cam.target, cam.eye));
+  const V3 right = normalize(cross(fwd, cam.up));
+  const V3 up = cross(right, fwd);
+  const float tanHalf = std::tan(0.5f * cam.yfovRadians);
+  const float aspect = float(settings.width) / float(settings.height);
+  const V3 light = normalize(settings.lightDirection);
+  const V3 ext = sub(world.bounds().upper, world.bounds().lower);
+  const float sceneSize = std::max(1e-6f, std::sqrt(dot(ext, ext)));
+  const float shadowEps = 1e-4f * sceneSize;
+  const uint32_t W = settings.width, H = settings.height, spp = settings.spp;
+  constexpr uint32_t kTile = 16;
+  const uint32_t tilesX = (W + kTile - 1) / kTile, tilesY = (H + kTile - 1) / kTile;
+  std::vector<TraceCounters> tileCounters(size_t(tilesX) * tilesY);
+  RenderResult result;
+  result.image.width = W;
+  result.image.height = H;
+  result.image.rgba.assign(size_t(W) * H * 4, 255);
+  const RTCScene rtcScene = impl_->scene;
+  const MethodKind kind = impl_->kind;
+  const OmmArrays* overlay = impl_->overlay.get();
+
+  auto traceTile = [&](uint32_t tile) {
+    TraceCounters local;
+    detail::TraceContext ctx;
+    rtcInitIntersectContext(&ctx.rtc);
+    ctx.counters = &local;
+    const uint32_t x0 = (tile % tilesX) * kTile, y0 = (tile / tilesX) * kTile;
+    const uint32_t x1 = std::min(W, x0 + kTile), y1 = std::min(H, y0 + kTile);
+    for (uint32_t y = y0; y < y1; ++y)
+      for (uint32_t x = x0; x < x1; ++x) {
+        V3 acc{0, 0, 0};
+        for (uint32_t s = 0; s < spp; ++s) {
+          // Fixed sample pattern: pixel centre, then the R2 sequence around it.
+          float ox = 0.5f + float(s) * 0.7548776662f, oy = 0.5f + float(s) * 0.5698402910f;
+          ox -= std::floor(ox);
+          oy -= std::floor(oy);
+          const float px = (2.0f * (float(x) + ox) / float(W) - 1.0f) * tanHalf * aspect;
+          const float py = (1.0f - 2.0f * (float(y) + oy) / float(H)) * tanHalf;
+          const V3 dir = normalize(add(fwd, add(mul(right, px), mul(up, py))));
+          RTCRayHit rh;
+          rh.ray.org_x = cam.eye[0];
+          rh.ray.org_y = cam.eye[1];
+          rh.ray.org_z = cam.eye[2];
+          rh.ray.dir_x = dir[0];
+          rh.ray.dir_y = dir[1];
+          rh.ray.dir_z = dir[2];
+          rh.ray.tnear = 0.0f;
+          rh.ray.tfar = std::numeric_limits<float>::infinity();
+          rh.ray.time = 0.0f;
+          rh.ray.mask = 0xffffffffu;
+          rh.ray.id = 0;
+          rh.ray.flags = 0;
+          rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+          rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+          rtcIntersect1(rtcScene, &ctx.rtc, &rh);
+          ++local.primaryRays;
+          if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) {
+            const float k = 0.5f + 0.5f * dir[1];
+            acc = add(acc, add(mul(V3{0.9f, 0.93f, 0.97f}, 1.0f - k), mul(V3{0.45f, 0.62f, 0.88f}, k)));
+            continue;
+          }
+          const detail::FlatGeometry& f = w.flat[rh.hit.geomID];
+          const detail::GeometryData& gd = w.geometries[f.geometry];
+          const uint32_t prim = rh.hit.primID;
+          const uint32_t* tri = gd.indices.data() + 3 * size_t(prim);
+          const float* P = f.positions.data();
+          const V3 a{P[3 * tri[0]], P[3 * tri[0] + 1], P[3 * tri[0] + 2]};
+          const V3 b{P[3 * tri[1]], P[3 * tri[1] + 1], P[3 * tri[1] + 2]};
+          const V3 c{P[3 * tri[2]], P[3 * tri[2] + 1], P[3 * tri[2] + 2]};
+          V3 n = normalize(cross(sub(b, a), sub(c, a)));
+          if (dot(n, dir) > 0) n = mul(n, -1.0f);
+          float s0, t0;
+          interpolateUV(gd.triUVs.data() + 6 * size_t(prim), rh.hit.u, rh.hit.v, s0, t0);
+          V3 albedo = baseColor(*gd.material, s0, t0);
+          if (kind == MethodKind::StateOverlay)
+            albedo = gd.alphaTested ? stateColor((*overlay)[f.geometry].stateUV(prim, rh.hit.u, rh.hit.v))
+                                    : V3{0.55f, 0.55f, 0.6f};
+          const float ndl = dot(n, light);
+          float direct = 0.0f;
+          if (ndl > 0.0f) {
+            direct = ndl;
+            if (settings.shadows) {
+              const V3 p = add(cam.eye, mul(dir, rh.ray.tfar));
+              RTCRay sr;
+              sr.org_x = p[0];
+              sr.org_y = p[1];
+              sr.org_z = p[2];
+              sr.dir_x = light[0];
+              sr.dir_y = light[1];
+              sr.dir_z = light[2];
+              sr.tnear = shadowEps;
+              sr.tfar = std::numeric_limits<float>::infinity();
+              sr.time = 0.0f;
+              sr.mask = 0xffffffffu;
+              sr.id = 0;
+              sr.flags = 0;
+              rtcOccluded1(rtcScene, &ctx.rtc, &sr);
+              ++local.shadowRays;
+              if (sr.tfar < 0.0f) direct = 0.0f;
+            }
+          }
+          acc = add(acc, mul(albedo, 0.3f + 0.7f * direct));
+        }
+        uint8_t* px = result.image.rgba.data() + (size_t(y) * W + x) * 4;
+        for (int k = 0; k < 3; ++k) {
+          const float v = std::clamp(acc[k] / float(spp), 0.0f, 1.0f);
+          px[k] = uint8_t(v * 255.0f + 0.5f);
+        }
+        px[3] = 255;
+      }
+    tileCounters[tile] = local;
+  };
+
+  tbb::task_arena arena(settings.threads ? int(settings.threads) : tbb::task_arena::automatic);
+  const auto start = std::chrono::steady_clock::now();
+  arena.execute([&] {
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, tilesX * tilesY, 1),
+                      [&](const tbb::blocked_range<uint32_t>& r) {
+                        for (uint32_t t = r.begin(); t < r.end(); ++t) traceTile(t);
+                      });
+  });
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  for (const auto& c : tileCounters) result.counters += c;
+  (void)scene;
+  return result;
+}
+
+}  // namespace somm
+
+namespace somm::detail {
+std::vector<std::string> encodingNames() {
+  return {"flat"};
+}
+}  // namespace somm::detail

@@ -1,0 +1,399 @@
+// Baker behaviour: tightness, levels, maxBytes, determinism across thread counts, special cases, estimate.
+#include "somm/bake.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "bake/bake_test_util.h"
+
+namespace somm {
+namespace {
+
+using testing::makeTexture;
+
+// Brute force over every texel of the wrapped rectangle.
+TEST(AlphaMask, CountMatchesBruteForceForEveryWrap) {
+  const AlphaTexture tex =
+      makeTexture(7, 5, [](uint32_t x, uint32_t y) { return (x * 3 + y * 5) % 4 == 0 ? 1.0 : 0.2; });
+  std::mt19937 rng(5);
+  std::uniform_int_distribution<int64_t> d(-30, 30), len(0, 20);
+  for (Wrap ws : {Wrap::Repeat, Wrap::ClampToEdge, Wrap::MirroredRepeat})
+    for (Wrap wt : {Wrap::Repeat, Wrap::ClampToEdge, Wrap::MirroredRepeat}) {
+      const Sampler smp{ws, wt, Filter::Nearest};
+      const AlphaMask mask(tex, smp, 0.5f);
+      for (int k = 0; k < 300; ++k) {
+        const int64_t x0 = d(rng), x1 = x0 + len(rng), y0 = d(rng), y1 = y0 + len(rng);
+        bool anyPass = false, anyFail = false;
+        for (int64_t y = y0; y <= y1; ++y)
+          for (int64_t x = x0; x <= x1; ++x) {
+            const bool p =
+                tex.at(uint32_t(testing::refWrap(x, 7, ws)), uint32_t(testing::refWrap(y, 5, wt))) >= 0.5f;
+            (p ? anyPass : anyFail) = true;
+          }
+        const AlphaMask::Count c = mask.count(x0, x1, y0, y1);
+        EXPECT_EQ(c.pass > 0, anyPass) << x0 << ".." << x1 << " × " << y0 << ".." << y1;
+        EXPECT_EQ(c.pass < c.total, anyFail) << x0 << ".." << x1 << " × " << y0 << ".." << y1;
+      }
+    }
+}
+
+// A hard vertical edge between texel columns 31 and 32 (opaque left). Exactly the micro-triangles whose
+// texel-space x-extent reaches across the edge are unknown; all others are known.
+TEST(Tightness, HalfPlaneNearestLeavesOnlyStraddlersUnknown) {
+  const AlphaTexture tex = makeTexture(64, 64, [](uint32_t x, uint32_t) { return x < 32 ? 1.0 : 0.0; });
+  const AlphaMask mask(tex, Sampler{Wrap::ClampToEdge, Wrap::ClampToEdge, Filter::Nearest}, 0.5f);
+  const double P[3][2] = {{3.06, 4.99}, {61.42, 12.51}, {18.9, 60.3}};  // texel space
+  const uint32_t level = 6;
+  const TriangleBake b = bakeTriangle(mask, {float(P[0][0] / 64), float(P[0][1] / 64)},
+                                      {float(P[1][0] / 64), float(P[1][1] / 64)},
+                                      {float(P[2][0] / 64), float(P[2][1] / 64)}, level, Format::FourState);
+  uint64_t straddlers = 0;
+  for (uint32_t i = 0; i < b.map.size(); ++i) {
+    const MicroTriangle m = indexToMicroTriangle(i, level);
+    double lo = 1e9, hi = -1e9;
+    for (const GridPoint& g : m.v) {
+      const double u = g.u / 64.0, v = g.v / 64.0;
+      const double x = P[0][0] + u * (P[1][0] - P[0][0]) + v * (P[2][0] - P[0][0]);
+      lo = std::min(lo, x);
+      hi = std::max(hi, x);
+    }
+    // No micro-vertex lies within 0.01 texel of the edge, so "straddles" does not depend on the margin.
+    ASSERT_FALSE(std::fabs(lo - 32) < 0.01 || std::fabs(hi - 32) < 0.01) << i;
+    const bool straddles = lo < 32 && hi > 32;
+    straddlers += straddles;
+    const State s = b.map.get(i);
+    EXPECT_EQ(!isKnown(s), straddles) << i;
+    if (!straddles) {
+      EXPECT_EQ(s, hi < 32 ? State::Opaque : State::Transparent) << i;
+    }
+  }
+  EXPECT_EQ(b.unknownCount, straddlers);
+  EXPECT_GT(straddlers, 60u);
+  EXPECT_LT(straddlers, 200u);  // ~2^level along the edge, out of 4096
+}
+
+// Linear: the blend ramps between texel centres 31.5 and 32.5; the corner bound leaves exactly the
+// micro-triangles whose x-extent meets [31.5, 32.5] unknown.
+TEST(Tightness, HalfPlaneLinearUnknownOnlyOnTheRamp) {
+  const AlphaTexture tex = makeTexture(64, 64, [](uint32_t x, uint32_t) { return x < 32 ? 1.0 : 0.0; });
+  const AlphaMask mask(tex, Sampler{Wrap::ClampToEdge, Wrap::ClampToEdge, Filter::Linear}, 0.5f);
+  const double P[3][2] = {{3.06, 4.99}, {61.42, 12.51}, {18.9, 60.3}};
+  const uint32_t level = 6;
+  const TriangleBake b = bakeTriangle(mask, {float(P[0][0] / 64), float(P[0][1] / 64)},
+                                      {float(P[1][0] / 64), float(P[1][1] / 64)},
+                                      {float(P[2][0] / 64), float(P[2][1] / 64)}, level, Format::FourState);
+  uint64_t onRamp = 0;
+  for (uint32_t i = 0; i < b.map.size(); ++i) {
+    const MicroTriangle m = indexToMicroTriangle(i, level);
+    double lo = 1e9, hi = -1e9;
+    for (const GridPoint& g : m.v) {
+      const double x = P[0][0] + g.u / 64.0 * (P[1][0] - P[0][0]) + g.v / 64.0 * (P[2][0] - P[0][0]);
+      lo = std::min(lo, x);
+      hi = std::max(hi, x);
+    }
+    ASSERT_FALSE(std::fabs(lo - 31.5) < 0.01 || std::fabs(hi - 32.5) < 0.01) << i;
+    const bool ramp = hi > 31.5 && lo < 32.5;
+    onRamp += ramp;
+    EXPECT_EQ(!isKnown(b.map.get(i)), ramp) << i;
+  }
+  EXPECT_EQ(b.unknownCount, onRamp);
+}
+
+TEST(Tightness, UnknownMajorityFollowsCoverage) {
+  // Micro-triangles straddling the edge mostly on the opaque side are unknown-opaque, and vice versa.
+  const AlphaTexture tex = makeTexture(8, 8, [](uint32_t x, uint32_t) { return x < 4 ? 1.0 : 0.0; });
+  const AlphaMask mask(tex, Sampler{Wrap::ClampToEdge, Wrap::ClampToEdge, Filter::Nearest}, 0.5f);
+  // Level 0: one micro-triangle = the whole triangle, in texel space x from 1 to 4.2 (mostly opaque) or 3.8
+  // to 7.
+  EXPECT_EQ(bakeTriangle(mask, {1 / 8.f, 0}, {4.2f / 8, 0}, {1 / 8.f, 1}, 0, Format::FourState).map.get(0),
+            State::UnknownOpaque);
+  EXPECT_EQ(bakeTriangle(mask, {3.8f / 8, 0}, {7 / 8.f, 0}, {7 / 8.f, 1}, 0, Format::FourState).map.get(0),
+            State::UnknownTransparent);
+}
+
+Geometry randomGeometry(uint32_t triangles, uint32_t seed, float spread = 0.15f) {
+  Geometry g;
+  g.name = "random";
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> c(-0.2f, 1.2f), d(-spread, spread);
+  for (uint32_t t = 0; t < triangles; ++t) {
+    const float x = c(rng), y = c(rng);
+    for (int k = 0; k < 3; ++k) {
+      g.uvs.push_back(x + d(rng));
+      g.uvs.push_back(y + d(rng));
+      g.positions.insert(g.positions.end(), {0, 0, 0});
+      g.indices.push_back(3 * t + uint32_t(k));
+    }
+  }
+  return g;
+}
+
+Material discMaterial(uint32_t size = 64, Filter f = Filter::Linear) {
+  Material m;
+  m.name = "disc";
+  m.alphaMode = AlphaMode::Mask;
+  m.alphaCutoff = 0.5f;
+  m.sampler = Sampler{Wrap::Repeat, Wrap::MirroredRepeat, f};
+  m.alpha = std::make_shared<AlphaTexture>(makeTexture(size, size, [size](uint32_t x, uint32_t y) {
+    const double dx = (x + 0.5) / size - 0.5, dy = (y + 0.5) / size - 0.5;
+    const double r = std::sqrt(dx * dx + dy * dy) + 0.03 * std::sin(x * 0.7) * std::cos(y * 1.3);
+    return std::clamp(1.0 - (r - 0.3) * 10, 0.0, 1.0);
+  }));
+  return m;
+}
+
+TEST(BakeGeometry, IdenticalBytesForAnyThreadCount) {
+  const Geometry g = randomGeometry(3000, 11);
+  const Material m = discMaterial();
+  for (Format f : {Format::FourState, Format::TwoState}) {
+    BakeOptions o;
+    o.level = 5;
+    o.format = f;
+    o.threads = 1;
+    auto one = bakeGeometry(g, m, o);
+    ASSERT_TRUE(one.ok()) << one.error().message;
+    EXPECT_GT(one->stats.uniqueMaps, 100u);
+    EXPECT_GT(
+        one->stats.specialCount[size_t(State::Opaque)] + one->stats.specialCount[size_t(State::Transparent)],
+        100u);
+    for (uint32_t threads : {2u, 4u, 0u}) {
+      o.threads = threads;
+      auto many = bakeGeometry(g, m, o);
+      ASSERT_TRUE(many.ok());
+      EXPECT_EQ(many->array.data, one->array.data) << threads;
+      EXPECT_EQ(many->array.descriptorBytes(), one->array.descriptorBytes()) << threads;
+      EXPECT_EQ(many->array.indexBufferBytes(), one->array.indexBufferBytes()) << threads;
+      EXPECT_EQ(many->stats.unknownMicroTriangles, one->stats.unknownMicroTriangles);
+    }
+  }
+}
+
+TEST(BakeGeometry, ArrayMatchesPerTriangleBakeAndStats) {
+  const Geometry g = randomGeometry(500, 3);
+  const Material m = discMaterial(32, Filter::Nearest);
+  BakeOptions o;
+  o.level = 4;
+  auto r = bakeGeometry(g, m, o);
+  ASSERT_TRUE(r.ok());
+  const AlphaMask mask(*m.alpha, m.sampler, m.alphaCutoff);
+  uint64_t unknown = 0;
+  std::array<uint64_t, 4> special{};
+  for (uint32_t t = 0; t < g.triangleCount(); ++t) {
+    const TriangleBake b =
+        bakeTriangle(mask, {g.uvs[6 * t], g.uvs[6 * t + 1]}, {g.uvs[6 * t + 2], g.uvs[6 * t + 3]},
+                     {g.uvs[6 * t + 4], g.uvs[6 * t + 5]}, 4, Format::FourState);
+    unknown += b.unknownCount;
+    for (uint32_t i = 0; i < b.map.size(); ++i)
+      ASSERT_EQ(r->array.state(t, i), b.map.get(i)) << t << " " << i;
+    if (auto u = b.map.uniformState()) ++special[size_t(*u)];
+  }
+  EXPECT_EQ(r->stats.unknownMicroTriangles, unknown);
+  EXPECT_EQ(r->stats.specialCount, special);
+  EXPECT_EQ(r->stats.triangles, 500u);
+  EXPECT_EQ(r->stats.microTriangles, 500u * 256);
+  EXPECT_EQ(r->stats.dataBytes, r->array.data.size());
+  EXPECT_EQ(r->stats.uniqueMaps, r->array.descriptors.size());
+  EXPECT_EQ(r->stats.minLevel, 4u);
+  EXPECT_EQ(r->stats.maxLevel, 4u);
+}
+
+TEST(BakeGeometry, TwoStateIsFourStateDemoted) {
+  const Geometry g = randomGeometry(400, 8);
+  const Material m = discMaterial();
+  const AlphaMask mask(*m.alpha, m.sampler, m.alphaCutoff);
+  uint64_t unknownSeen = 0;
+  for (uint32_t t = 0; t < g.triangleCount(); ++t) {
+    const std::array<float, 2> a{g.uvs[6 * t], g.uvs[6 * t + 1]}, b{g.uvs[6 * t + 2], g.uvs[6 * t + 3]},
+        c{g.uvs[6 * t + 4], g.uvs[6 * t + 5]};
+    const Micromap four = bakeTriangle(mask, a, b, c, 4, Format::FourState).map;
+    EXPECT_EQ(bakeTriangle(mask, a, b, c, 4, Format::TwoState).map, four.toTwoStateMap());
+    const Micromap asOpaque = bakeTriangle(mask, a, b, c, 4, Format::TwoState, UnknownAs::Opaque).map;
+    const Micromap asTransparent =
+        bakeTriangle(mask, a, b, c, 4, Format::TwoState, UnknownAs::Transparent).map;
+    for (uint32_t i = 0; i < four.size(); ++i) {
+      const State s = four.get(i);
+      unknownSeen += !isKnown(s);
+      EXPECT_EQ(asOpaque.get(i), isKnown(s) ? s : State::Opaque);
+      EXPECT_EQ(asTransparent.get(i), isKnown(s) ? s : State::Transparent);
+    }
+  }
+  EXPECT_GT(unknownSeen, 1000u);
+}
+
+TEST(BakeGeometry, AdaptiveLevelsExact) {
+  // 64×64 texture, S = 4 texels: level L when area ≤ 4·4^L. Right triangles with legs a texels have area
+  // a²/2.
+  Material m = discMaterial(64);
+  Geometry g;
+  auto add = [&](float legTexels, float x0) {
+    const float l = legTexels / 64, x = x0 / 64;
+    const uint32_t base = uint32_t(g.uvs.size() / 2);
+    g.uvs.insert(g.uvs.end(), {x, 0.1f, x + l, 0.1f, x, 0.1f + l});
+    g.indices.insert(g.indices.end(), {base, base + 1, base + 2});
+  };
+  add(1, 0);                                                        // area 0.5  → 0
+  add(2.9f, 5);                                                     // 4.2 → 1
+  add(8, 9);                                                        // 32 → 2 (16 < 32 ≤ 64)
+  add(16, 20);                                                      // 128 → 3
+  add(45, 3);                                                       // 1012.5 → 4 (≤ 1024)
+  add(64, 0);                                                       // 2048 → 5, capped at 4
+  g.uvs.insert(g.uvs.end(), {0.2f, 0.2f, 0.4f, 0.4f, 0.6f, 0.6f});  // zero area → 0
+  g.indices.insert(g.indices.end(), {18, 19, 20});
+  BakeOptions o;
+  o.texelsPerMicroTri = 4;
+  o.maxLevel = 4;
+  auto r = bakeGeometry(g, m, o);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_EQ(r->levels, (std::vector<uint8_t>{0, 1, 2, 3, 4, 4, 0}));
+  EXPECT_EQ(adaptiveLevel({0, 0}, {1, 0}, {0, 1}, 64, 64, 4, 12), 5u);         // 2048 texels
+  EXPECT_EQ(adaptiveLevel({0, 0}, {0.5f, 0}, {0, 0.25f}, 64, 64, 4, 12), 3u);  // 256 = 4·4^3 exactly
+  EXPECT_EQ(adaptiveLevel({0, 0}, {NAN, 0}, {0, 1}, 64, 64, 4, 12), 0u);
+  for (uint32_t t = 0; t < g.triangleCount(); ++t) {
+    const int32_t i = r->array.indices[t];
+    if (i >= 0) {
+      EXPECT_EQ(r->array.descriptors[size_t(i)].subdivisionLevel, r->levels[t]);
+    }
+  }
+  auto e = estimateBake(g, m, o);
+  ASSERT_TRUE(e.ok());
+  EXPECT_EQ(e->dataBytes, micromapDataBytes(1, Format::FourState) + micromapDataBytes(2, Format::FourState) +
+                              micromapDataBytes(3, Format::FourState) +
+                              2 * micromapDataBytes(4, Format::FourState));
+  EXPECT_EQ(e->mapTriangles, 5u);
+}
+
+TEST(BakeGeometry, MaxBytesRespected) {
+  const Geometry g = randomGeometry(800, 21, 0.3f);
+  const Material m = discMaterial(128);
+  BakeOptions o;
+  o.level = 6;
+  auto full = bakeGeometry(g, m, o);
+  ASSERT_TRUE(full.ok());
+  auto est = estimateBake(g, m, o);
+  ASSERT_TRUE(est.ok());
+  EXPECT_LE(full->stats.dataBytes, est->dataBytes);
+  EXPECT_EQ(full->stats.levelCap, kMaxLevel);
+  for (uint64_t budget : {full->stats.dataBytes, full->stats.dataBytes / 3, uint64_t(5000), uint64_t(1)}) {
+    o.maxBytes = budget;
+    auto r = bakeGeometry(g, m, o);
+    ASSERT_TRUE(r.ok());
+    EXPECT_LE(r->array.data.size(), budget);
+    for (uint8_t l : r->levels) EXPECT_LE(l, r->stats.levelCap);
+    if (budget == full->stats.dataBytes) {
+      EXPECT_EQ(r->array.data, full->array.data);  // already fits: unchanged
+    } else {
+      EXPECT_LT(r->stats.levelCap, 6u);
+      // The highest cap that fits: one level more would not.
+      BakeOptions more = o;
+      more.maxBytes = 0;
+      more.level = r->stats.levelCap + 1;
+      auto above = bakeGeometry(g, m, more);
+      ASSERT_TRUE(above.ok());
+      EXPECT_GT(above->array.data.size(), budget);
+    }
+  }
+}
+
+TEST(BakeGeometry, ConstantAlphaAndOpaqueMaterials) {
+  const Geometry g = randomGeometry(10, 1);
+  Material m;
+  m.alphaMode = AlphaMode::Mask;
+  m.baseColorFactor = {1, 1, 1, 0.4f};
+  BakeOptions o;
+  auto r = bakeGeometry(g, m, o);
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(r->array.indices, std::vector<int32_t>(10, specialIndexFor(State::Transparent)));
+  o.cutoff = 0.4f;
+  r = bakeGeometry(g, m, o);
+  EXPECT_EQ(r->array.indices, std::vector<int32_t>(10, specialIndexFor(State::Opaque)));
+  m = discMaterial();
+  m.alphaMode = AlphaMode::Opaque;
+  r = bakeGeometry(g, m, o);
+  EXPECT_EQ(r->array.indices, std::vector<int32_t>(10, specialIndexFor(State::Opaque)));
+  EXPECT_TRUE(r->array.data.empty());
+  EXPECT_EQ(r->stats.specialCount[size_t(State::Opaque)], 10u);
+}
+
+TEST(BakeGeometry, NonFiniteUvsAreWholeTriangleUnknown) {
+  Geometry g = randomGeometry(6, 2);
+  g.uvs[0] = NAN;
+  g.uvs[9] = INFINITY;
+  g.uvs[17] = -INFINITY;
+  const Material m = discMaterial();
+  BakeOptions o;
+  o.level = 3;
+  auto r = bakeGeometry(g, m, o);
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(r->stats.nonFiniteUvTriangles, 3u);
+  for (uint32_t t : {0u, 1u, 2u}) EXPECT_EQ(r->array.indices[t], specialIndexFor(State::UnknownOpaque));
+  EXPECT_NE(r->array.indices[3], specialIndexFor(State::UnknownOpaque));
+  EXPECT_GE(r->stats.unknownMicroTriangles, 3u * 64);
+  o.format = Format::TwoState;
+  o.unknownAs = UnknownAs::Transparent;
+  r = bakeGeometry(g, m, o);
+  EXPECT_EQ(r->array.indices[0], specialIndexFor(State::Transparent));
+}
+
+TEST(BakeGeometry, ZeroAreaTrianglesClassifiedFromWhatTheyTouch) {
+  const AlphaTexture tex =
+      makeTexture(4, 4, [](uint32_t x, uint32_t y) { return (x == 1 && y == 1) ? 1.0 : 0.0; });
+  const AlphaMask mask(tex, Sampler{Wrap::Repeat, Wrap::Repeat, Filter::Nearest}, 0.5f);
+  // A point inside the opaque texel, a point in a transparent one, a segment inside texel (1,1), one leaving
+  // it.
+  EXPECT_EQ(
+      bakeTriangle(mask, {0.3f, 0.3f}, {0.3f, 0.3f}, {0.3f, 0.3f}, 3, Format::FourState).map.uniformState(),
+      State::Opaque);
+  EXPECT_EQ(
+      bakeTriangle(mask, {0.8f, 0.3f}, {0.8f, 0.3f}, {0.8f, 0.3f}, 3, Format::FourState).map.uniformState(),
+      State::Transparent);
+  EXPECT_EQ(
+      bakeTriangle(mask, {0.26f, 0.3f}, {0.49f, 0.3f}, {0.4f, 0.3f}, 3, Format::FourState).map.uniformState(),
+      State::Opaque);
+  const Micromap seg = bakeTriangle(mask, {0.3f, 0.3f}, {0.7f, 0.3f}, {0.5f, 0.3f}, 2, Format::FourState).map;
+  EXPECT_FALSE(seg.uniformState().has_value());
+  EXPECT_EQ(seg.get(0), State::Opaque);  // the micro-triangle at vertex 0 stays inside texel (1, 1)
+}
+
+TEST(BakeGeometry, RejectsBadInput) {
+  const Material m = discMaterial();
+  Geometry g = randomGeometry(3, 1);
+  BakeOptions o;
+  o.level = 13;
+  auto r = bakeGeometry(g, m, o);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("--level"), std::string::npos);
+  o.level = 2;
+  g.indices.push_back(99);
+  g.indices.push_back(0);
+  g.indices.push_back(1);
+  r = bakeGeometry(g, m, o);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("out of range"), std::string::npos);
+  g.indices.pop_back();
+  r = bakeGeometry(g, m, o);
+  ASSERT_FALSE(r.ok());
+  Material bad = m;
+  auto tex = std::make_shared<AlphaTexture>(*m.alpha);
+  tex->alpha.pop_back();
+  bad.alpha = tex;
+  r = bakeGeometry(randomGeometry(3, 1), bad, o);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("material 'disc'"), std::string::npos);
+}
+
+TEST(BakeGeometry, ProgressReachesOne) {
+  const Geometry g = randomGeometry(9000, 4);
+  const Material m = discMaterial();
+  BakeOptions o;
+  o.level = 2;
+  std::vector<double> seen;
+  o.progress = [&](double f) { seen.push_back(f); };
+  ASSERT_TRUE(bakeGeometry(g, m, o).ok());
+  ASSERT_GE(seen.size(), 2u);
+  EXPECT_TRUE(std::is_sorted(seen.begin(), seen.end()));
+  EXPECT_EQ(seen.back(), 1.0);
+}
+
+}  // namespace
+}  // namespace somm

@@ -1,0 +1,78 @@
+// somm query FILE.somm --geometry G --triangle T: `u v` per line on stdin → the micro-triangle state per
+// line.
+#include <string>
+
+#include "command.h"
+#include "somm/somm_file.h"
+
+namespace {
+
+struct Options {
+  std::string path;
+  uint64_t geometry = 0;
+  uint64_t triangle = 0;
+};
+
+int run(const Options& o) {
+  using namespace somm::cli;
+  auto file = somm::readSommFile(o.path);
+  if (!file) {
+    printError("query", file.error().message);
+    return kExitFailure;
+  }
+  const somm::SommFile& f = *file;
+  if (o.geometry >= f.geometries.size()) {
+    printError("query", "--geometry " + std::to_string(o.geometry) + " is out of range: " + o.path + " has " +
+                            std::to_string(f.geometries.size()) + " geometries");
+    return kExitUsage;
+  }
+  const somm::SommGeometry& g = f.geometries[o.geometry];
+  if (o.triangle >= g.flat.indices.size()) {
+    printError("query", "--triangle " + std::to_string(o.triangle) + " is out of range: geometry " +
+                            std::to_string(o.geometry) + " has " + std::to_string(g.flat.indices.size()) +
+                            " triangles");
+    return kExitUsage;
+  }
+  const uint32_t t = uint32_t(o.triangle);
+  const bool twoState = g.info.format == somm::Format::TwoState;
+  LineReader in(stdin);
+  Output out;
+  std::string_view line;
+  while (in.next(line)) {
+    std::string_view rest = line;
+    const std::string_view a = nextToken(rest);
+    if (a.empty()) continue;  // blank line
+    const std::string_view b = nextToken(rest);
+    float u, v;
+    if (b.empty() || !nextToken(rest).empty() || !parseFloat(a, u) || !parseFloat(b, v)) {
+      out.flush();
+      printError("query", "stdin line " + std::to_string(in.lineNumber()) +
+                              ": expected two floats 'u v', got '" + std::string(line.substr(0, 80)) + "'");
+      return kExitUsage;
+    }
+    somm::State s = g.flat.stateUV(t, u, v);
+    if (twoState) s = somm::toTwoState(s);
+    out.putChar(char('0' + int(s)));
+    out.putChar('\n');
+  }
+  return kExitOk;
+}
+
+void setup(CLI::App& root) {
+  auto opts = std::make_shared<Options>();
+  CLI::App* cmd =
+      root.add_subcommand("query",
+                          "Look up micro-triangle states. Reads one 'u v' pair per line from stdin "
+                          "(barycentrics of vertices 1 and 2, "
+                          "parsed like strtof) and prints the state a ray tracer reads: 0 transparent, 1 "
+                          "opaque, 2 unknown-transparent, "
+                          "3 unknown-opaque (special indices resolved; a 2-state geometry prints 0 or 1).");
+  cmd->add_option("file", opts->path, ".somm file")->required();
+  cmd->add_option("--geometry,-g", opts->geometry, "geometry index (see somm info)")->required();
+  cmd->add_option("--triangle,-t", opts->triangle, "triangle index within the geometry")->required();
+  cmd->callback([opts] { somm::cli::setExitCode(run(*opts)); });
+}
+
+const somm::cli::Registration reg("query", &setup);
+
+}  // namespace

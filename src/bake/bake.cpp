@@ -465,8 +465,10 @@ std::vector<uint8_t> chooseLevels(const Geometry& g, const AlphaMask& mask, cons
 }
 
 // Bakes every triangle at min(level, cap) into `out`.
+// Progress of this pass is reported as progressBase + fraction · progressSpan.
 void bakeAll(const Geometry& g, const AlphaMask& mask, const std::vector<uint8_t>& levels, uint32_t cap,
-             const BakeOptions& o, tbb::task_arena& arena, BakedGeometry& out) {
+             const BakeOptions& o, tbb::task_arena& arena, BakedGeometry& out, double progressBase,
+             double progressSpan) {
   const uint32_t n = g.triangleCount();
   OmmArrayBuilder builder;
   BakeStats& st = out.stats;
@@ -506,7 +508,7 @@ void bakeAll(const Geometry& g, const AlphaMask& mask, const std::vector<uint8_t
         builder.add(b.map);
     }
     t = end;
-    if (o.progress) o.progress(double(t) / double(n));
+    if (o.progress) o.progress(progressBase + progressSpan * double(t) / double(n));
   }
   out.array = builder.finish();
 }
@@ -654,16 +656,22 @@ Result<BakedGeometry> bakeGeometry(const Geometry& geometry, const Material& mat
   tbb::task_arena arena(options.threads ? int(options.threads) : tbb::task_arena::automatic);
   const std::vector<uint8_t> levels = chooseLevels(geometry, *mask, options);
   const uint32_t top = levels.empty() ? 0 : *std::max_element(levels.begin(), levels.end());
-  bakeAll(geometry, *mask, levels, kMaxLevel, options, arena, out);
+  // With maxBytes, re-bakes may follow: pass k reports within [1 − 2^−k, 1 − 2^−(k+1)], so progress stays
+  // monotone.
+  double span = options.maxBytes > 0 ? 0.5 : 1.0, base = 0;
+  bakeAll(geometry, *mask, levels, kMaxLevel, options, arena, out, base, span);
   out.stats.levelCap = kMaxLevel;
   if (options.maxBytes > 0) {
     // Lower the largest maps (the highest levels) one level at a time until the data fits. Level 0 always
     // fits: a one-state map is uniform and becomes a special index.
     for (uint32_t cap = top; out.array.data.size() > options.maxBytes && cap-- > 0;) {
-      bakeAll(geometry, *mask, levels, cap, options, arena, out);
+      base += span;
+      span *= 0.5;
+      bakeAll(geometry, *mask, levels, cap, options, arena, out, base, span);
       out.stats.levelCap = cap;
     }
   }
+  if (options.progress && span != 1.0) options.progress(1.0);
   finishStats(out);
   out.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;

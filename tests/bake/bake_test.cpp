@@ -401,6 +401,16 @@ TEST(BakeGeometry, ProgressReachesOne) {
   ASSERT_GE(seen.size(), 2u);
   EXPECT_TRUE(std::is_sorted(seen.begin(), seen.end()));
   EXPECT_EQ(seen.back(), 1.0);
+  // With re-bakes for maxBytes the progress stays monotone and ends at 1.
+  seen.clear();
+  o.level = 5;
+  o.maxBytes = 2000;
+  auto r = bakeGeometry(g, m, o);
+  ASSERT_TRUE(r.ok());
+  EXPECT_LT(r->stats.levelCap, 4u);  // several passes
+  EXPECT_TRUE(std::is_sorted(seen.begin(), seen.end()));
+  EXPECT_EQ(seen.back(), 1.0);
+  EXPECT_LE(r->array.data.size(), 2000u);
 }
 
 }  // namespace

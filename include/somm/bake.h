@@ -45,7 +45,8 @@ struct BakeStats {
   uint64_t microTriangles = 0;             // sum over triangles of 4^level (special-index triangles included)
   uint64_t unknownMicroTriangles = 0;      // micro-triangles the conservative test left unknown (before any
                                            // 2-state demotion)
-  uint64_t nonFiniteUvTriangles = 0;       // triangles with NaN/inf UVs: baked as whole-triangle unknown
+  uint64_t nonFiniteUvTriangles = 0;       // triangles with NaN/inf UVs (or texel coordinates >= 1e14 in
+                                           // magnitude): baked as whole-triangle unknown
   uint32_t minLevel = 0, maxLevel = 0;     // range of the levels chosen (over all triangles)
   uint32_t levelCap = kMaxLevel;           // the global cap --max-bytes applied (kMaxLevel = none)
   double seconds = 0;

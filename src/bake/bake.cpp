@@ -94,6 +94,9 @@ uint8_t fillByte(Format f, State s) {
 // nodes).
 constexpr int64_t kLeafCells = 1024, kNodeCells = 4;
 
+// Texel coordinates at or beyond this magnitude make a triangle unknown (texelFloor clamps at 1e15).
+constexpr double kMaxTexelCoord = 1e14;
+
 // Rows of cells beyond which a region is declared mixed without enumerating (still conservative).
 constexpr int64_t kMaxRows = int64_t(1) << 22;
 
@@ -214,7 +217,8 @@ struct TriangleClassifier {
     const int64_t j0 = cellFloor(min3(Y) - m), j1 = cellFloor(max3(Y) + m);
     const unsigned box = rect(i0, i1, j0, j1);
     if (box != kMixed) return box;
-    if (ext && (i1 - i0 + 1) * (j1 - j0 + 1) <= cellLimit) return bilinearCells(X, Y, j0, j1);
+    if (ext && i1 - i0 < cellLimit && j1 - j0 < cellLimit && (i1 - i0 + 1) * (j1 - j0 + 1) <= cellLimit)
+      return bilinearCells(X, Y, j0, j1);
     if (j0 == j1) return box;
     if (j1 - j0 > kMaxRows) return kMixed;
     // Exact: per row of cells, the x-extent of the grown triangle within the row.
@@ -370,15 +374,21 @@ void bakeOne(const AlphaMask& mask, std::array<float, 2> uv0, std::array<float, 
   out.uniform.reset();
   out.unknown = 0;
   out.nonFinite = false;
-  if (!finite2(uv0) || !finite2(uv1) || !finite2(uv2)) {
+  const double W = mask.width(), H = mask.height();
+  double X[3] = {double(uv0[0]) * W, double(uv1[0]) * W, double(uv2[0]) * W};
+  double Y[3] = {double(uv0[1]) * H, double(uv1[1]) * H, double(uv2[1]) * H};
+  // NaN/inf UVs, or texel coordinates so large that sampleAlpha's clamped texel arithmetic no longer
+  // interpolates
+  // (|x| ≥ 1e15): not classified.
+  bool usable = true;
+  for (int k = 0; k < 3; ++k)
+    usable = usable && std::fabs(X[k]) < kMaxTexelCoord && std::fabs(Y[k]) < kMaxTexelCoord;
+  if (!usable) {
     out.nonFinite = true;
     out.uniform = wholeUnknown(format, unknownAs);
     out.unknown = microTriangleCount(level);
     return;
   }
-  const double W = mask.width(), H = mask.height();
-  double X[3] = {double(uv0[0]) * W, double(uv1[0]) * W, double(uv2[0]) * W};
-  double Y[3] = {double(uv0[1]) * H, double(uv1[1]) * H, double(uv2[1]) * H};
   TriangleClassifier c{mask};
   c.margin = bakeMarginTexels(X, Y);
   c.shift = mask.sampler().filter == Filter::Linear ? 0.5 : 0.0;

@@ -341,6 +341,13 @@ TEST(BakeGeometry, NonFiniteUvsAreWholeTriangleUnknown) {
   o.unknownAs = UnknownAs::Transparent;
   r = bakeGeometry(g, m, o);
   EXPECT_EQ(r->array.indices[0], specialIndexFor(State::Transparent));
+  // Finite but absurdly large UVs (beyond the texel range sampleAlpha interpolates in) are unknown too.
+  const AlphaMask mask(*m.alpha, m.sampler, 0.5f);
+  const TriangleBake big =
+      bakeTriangle(mask, {3e12f, 0}, {3e12f + 1e6f, 0}, {3e12f, 1}, 2, Format::FourState);
+  EXPECT_TRUE(big.nonFiniteUv);
+  EXPECT_EQ(big.map.uniformState(), State::UnknownOpaque);
+  EXPECT_EQ(big.unknownCount, 16u);
 }
 
 TEST(BakeGeometry, ZeroAreaTrianglesClassifiedFromWhatTheyTouch) {

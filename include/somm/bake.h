@@ -33,8 +33,8 @@ struct BakeOptions {
   std::optional<float> cutoff;                // overrides the material's alpha cutoff
   uint64_t maxBytes = 0;  // 0 = no limit; else lower the levels of the largest maps until the data fits
   uint32_t threads = 0;   // 0 = all hardware threads
-  std::function<void(double)>
-      progress;  // fraction done, 0..1, non-decreasing, ends at 1; on the calling thread
+  // Fraction done, 0..1, non-decreasing, ends at 1; called on the calling thread (the library never prints).
+  std::function<void(double)> progress;
 };
 
 struct BakeStats {

@@ -24,6 +24,10 @@ struct Interval {
 // overlapping.
 int wrapInterval(int64_t a, int64_t b, uint32_t size, Wrap w, Interval out[4]) noexcept {
   const int64_t n = int64_t(size);
+  if (a >= 0 && b < n) {  // inside the texture: every wrap mode is the identity
+    out[0] = {uint32_t(a), uint32_t(b)};
+    return 1;
+  }
   switch (w) {
     case Wrap::ClampToEdge:
       out[0] = {uint32_t(std::clamp<int64_t>(a, 0, n - 1)), uint32_t(std::clamp<int64_t>(b, 0, n - 1))};
@@ -73,6 +77,11 @@ inline int64_t cellFloor(double x) noexcept {
   if (!(std::fabs(x) < 1e15)) return texelFloor(x);
   const int64_t i = int64_t(x);
   return i - (double(i) > x ? 1 : 0);
+}
+
+// wrapTexel with a fast path for indices inside the texture.
+inline uint32_t wrapFast(int64_t i, uint32_t size, Wrap w) noexcept {
+  return i >= 0 && i < int64_t(size) ? uint32_t(i) : wrapTexel(i, size, w);
 }
 
 constexpr unsigned kPass = 1, kFail = 2, kMixed = 3;
@@ -249,10 +258,10 @@ struct TriangleClassifier {
     for (int64_t j = j0; j <= j1; ++j) {
       double xl, xr;
       if (!slabExtent(X, Y, double(j) - m, double(j + 1) + m, xl, xr)) continue;
-      const uint32_t ya = wrapTexel(j, t.height, smp.wrapT), yb = wrapTexel(j + 1, t.height, smp.wrapT);
+      const uint32_t ya = wrapFast(j, t.height, smp.wrapT), yb = wrapFast(j + 1, t.height, smp.wrapT);
       const int64_t a = cellFloor(xl - m), b = cellFloor(xr + m);
       for (int64_t i = a; i <= b; ++i) {
-        const uint32_t xa = wrapTexel(i, t.width, smp.wrapS), xb = wrapTexel(i + 1, t.width, smp.wrapS);
+        const uint32_t xa = wrapFast(i, t.width, smp.wrapS), xb = wrapFast(i + 1, t.width, smp.wrapS);
         const float c00 = t.at(xa, ya), c10 = t.at(xb, ya), c01 = t.at(xa, yb), c11 = t.at(xb, yb);
         const int passes = alphaTestPasses(c00, cutoff) + alphaTestPasses(c10, cutoff) +
                            alphaTestPasses(c01, cutoff) + alphaTestPasses(c11, cutoff);

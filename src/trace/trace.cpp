@@ -604,14 +604,26 @@ Result<std::unique_ptr<Tracer>> makeEncoded(std::shared_ptr<const TraceWorld> wo
   for (auto& d : store->data) user.push_back(&d);
   RTCFilterFunctionN f = nullptr;
   switch (encoding) {
-    case Encoding::Flat: f = encodedFilter<Encoding::Flat>(format); break;
-    case Encoding::Dfs: f = encodedFilter<Encoding::Dfs>(format); break;
-    case Encoding::DfsFast: f = encodedFilter<Encoding::DfsFast>(format); break;
-    case Encoding::Rank: f = encodedFilter<Encoding::Rank>(format); break;
-    case Encoding::Hybrid: f = encodedFilter<Encoding::Hybrid>(format); break;
+    case Encoding::Flat:
+      f = encodedFilter<Encoding::Flat>(format);
+      break;
+    case Encoding::Dfs:
+      f = encodedFilter<Encoding::Dfs>(format);
+      break;
+    case Encoding::DfsFast:
+      f = encodedFilter<Encoding::DfsFast>(format);
+      break;
+    case Encoding::Rank:
+      f = encodedFilter<Encoding::Rank>(format);
+      break;
+    case Encoding::Hybrid:
+      f = encodedFilter<Encoding::Hybrid>(format);
+      break;
   }
-  const std::string name = std::string(format == Format::TwoState ? "omm2-" : "omm4-") + encodingName(encoding);
-  return TracerFactory::build(std::move(world), name, bytes, f, std::move(user), store, MethodKind::Omm, nullptr);
+  const std::string name =
+      std::string(format == Format::TwoState ? "omm2-" : "omm4-") + encodingName(encoding);
+  return TracerFactory::build(std::move(world), name, bytes, f, std::move(user), store, MethodKind::Omm,
+                              nullptr);
 }
 
 }  // namespace
@@ -640,7 +652,8 @@ Result<std::unique_ptr<Tracer>> makeTracer(std::shared_ptr<const TraceWorld> wor
       if (Status s = need(arrays); !s) return s.error();
       if (method.encoding == "flat") return makeFlatOmmTracer(std::move(world), arrays, method.format);
 #if SOMM_TRACE_HAS_ENCODINGS
-      if (auto e = parseEncodingName(method.encoding)) return makeEncoded(std::move(world), arrays, method.format, *e);
+      if (auto e = parseEncodingName(method.encoding))
+        return makeEncoded(std::move(world), arrays, method.format, *e);
 #endif
       return makeError(ErrorCode::InvalidArgument, "method " + method.name() + ": encoding not available");
     }
@@ -819,6 +832,12 @@ RenderResult Tracer::render(const RenderSettings& settings) const {
 
 namespace somm::detail {
 std::vector<std::string> encodingNames() {
+#if SOMM_TRACE_HAS_ENCODINGS
+  std::vector<std::string> names;
+  for (Encoding e : kAllEncodings) names.push_back(encodingName(e));
+  return names;
+#else
   return {"flat"};
+#endif
 }
 }  // namespace somm::detail

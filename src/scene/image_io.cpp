@@ -16,6 +16,12 @@ namespace {
 
 // Limit on decoded texels × channels we accept (1 Gi values = 2 GiB of 16-bit samples).
 constexpr uint64_t kMaxSamples = uint64_t(1) << 30;
+// Memory bound against hostile headers (docs/hardening.md): beyond 16 Mi samples, an image may not declare more
+// samples than 1032 per byte of encoded data — deflate (PNG) cannot expand more than 1032:1, so no valid PNG is
+// rejected, and other formats of real content compress far less. A 100-byte file claiming 30000x30000 texels is
+// refused before anything is allocated.
+constexpr uint64_t kFreeSamples = uint64_t(1) << 24;
+constexpr uint64_t kMaxExpansion = 1032;
 
 struct StbiFree {
   void operator()(void* p) const noexcept { stbi_image_free(p); }
@@ -38,6 +44,10 @@ Result<RawImage> decodeImage(const uint8_t* data, size_t size) {
   if (uint64_t(w) * uint64_t(h) * uint64_t(comp) > kMaxSamples)
     return makeError(ErrorCode::LimitExceeded, "image of " + std::to_string(w) + "x" + std::to_string(h) +
                                                    " texels is larger than supported");
+  if (uint64_t(w) * uint64_t(h) * uint64_t(comp) > kFreeSamples + kMaxExpansion * uint64_t(size))
+    return makeError(ErrorCode::LimitExceeded, "image declares " + std::to_string(w) + "x" + std::to_string(h) +
+                                                   " texels but its " + std::to_string(size) +
+                                                   " bytes cannot hold that many (truncated or corrupt)");
   RawImage img;
   const bool is16 = stbi_is_16_bit_from_memory(data, n) != 0;
   int w2 = 0, h2 = 0, c2 = 0;

@@ -13,14 +13,9 @@
 #include <limits>
 #include <map>
 
-#include "trace_internal.h"
-
-#if __has_include("somm/encode.h")
 #include "somm/encode.h"
+#include "trace_internal.h"
 #define SOMM_TRACE_HAS_ENCODINGS 1
-#else
-#define SOMM_TRACE_HAS_ENCODINGS 0
-#endif
 
 namespace somm {
 

@@ -677,9 +677,9 @@ V3 baseColor(const Material& m, float s, float t) {
 V3 stateColor(State s) {
   switch (s) {
     case State::Opaque:
-      return {0.25f, 0.85f, 0.3f};
+      return {0.45f, 0.8f, 0.45f};
     case State::UnknownOpaque:
-      return {1.0f, 0.65f, 0.1f};
+      return {1.0f, 0.55f, 0.0f};
     case State::UnknownTransparent:
       return {0.95f, 0.25f, 0.2f};
     case State::Transparent:
@@ -797,7 +797,9 @@ RenderResult Tracer::render(const RenderSettings& settings) const {
               if (sr.tfar < 0.0f) direct = 0.0f;
             }
           }
-          acc = add(acc, mul(albedo, 0.3f + 0.7f * direct));
+          // The overlay keeps shading contrast low so that the state colours stay readable.
+          acc = add(acc, mul(albedo, kind == MethodKind::StateOverlay ? 0.65f + 0.35f * direct
+                                                                      : 0.3f + 0.7f * direct));
         }
         uint8_t* px = result.image.rgba.data() + (size_t(y) * W + x) * 4;
         for (int k = 0; k < 3; ++k) {

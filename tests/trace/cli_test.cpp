@@ -8,6 +8,9 @@
 #include <string>
 
 #include "cli_util.h"
+#include "somm/bake.h"
+#include "somm/scene.h"
+#include "somm/somm_file.h"
 
 namespace somm {
 namespace {
@@ -110,6 +113,68 @@ TEST(TraceCli, CameraOptionChangesTheView) {
       0);
   int w, h;
   EXPECT_NE(loadPng(d.file("a.png"), w, h), loadPng(d.file("b.png"), w, h));
+}
+
+}  // namespace
+}  // namespace somm
+
+// A .somm file written by the file library, baked for a different cutoff than the material's: `--omm` traces
+// against the alpha test the file was baked for, exactly.
+namespace somm {
+namespace {
+
+TEST(TraceCli, RendersFromSommFile) {
+  TempDir d;
+  auto scene = loadScene(kOak);
+  ASSERT_TRUE(scene.ok()) << scene.error().message;
+  SommFile f;
+  f.sourcePath = kOak;
+  f.toolVersion = "test";
+  BakeOptions o;
+  o.level = 5;
+  o.cutoff = 0.3f;
+  for (const Geometry& g : scene->geometries) {
+    const Material& m = scene->materials[g.material];
+    auto baked = bakeGeometry(g, m, o);
+    ASSERT_TRUE(baked.ok()) << baked.error().message;
+    SommGeometry sg;
+    sg.info.name = g.name;
+    sg.info.material = m.name;
+    sg.info.triangleCount = g.triangleCount();
+    sg.info.format = Format::FourState;
+    sg.info.minLevel = baked->stats.minLevel;
+    sg.info.maxLevel = baked->stats.maxLevel;
+    sg.info.cutoff = 0.3f;
+    sg.info.sampler = m.sampler;
+    sg.flat = baked->array;
+    f.geometries.push_back(std::move(sg));
+  }
+  const std::string somm = d.file("oak.somm");
+  const Status w = writeSommFile(somm, f);
+  ASSERT_TRUE(w.ok()) << w.error().message;
+  const std::string view = " --width 64 --height 48 --camera 0.8,3.3,2.2,0.1,3.2,0.15,0,1,0,60";
+  ASSERT_EQ(runSomm("render " + kOak + view + " --cutoff 0.3 -o " + d.file("t.png")).exitCode, 0);
+  ASSERT_EQ(runSomm("render " + kOak + view + " -o " + d.file("t5.png")).exitCode, 0);
+  const auto r = runSomm("render " + kOak + view + " --omm " + somm + " --method omm4-hybrid --json -o " +
+                         d.file("o.png"));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["micromaps"], somm);
+  int w1, h1;
+  EXPECT_EQ(loadPng(d.file("o.png"), w1, h1), loadPng(d.file("t.png"), w1, h1));
+  EXPECT_NE(loadPng(d.file("t5.png"), w1, h1), loadPng(d.file("t.png"), w1, h1));  // the cutoff matters here
+  // 2-state methods from a 4-state file: the spec's demotion, never a texture test.
+  const auto two = runSomm("render " + kOak + view + " --omm " + somm + " --method omm2-rank --json -o " +
+                           d.file("two.png"));
+  ASSERT_EQ(two.exitCode, 0) << two.err;
+  EXPECT_EQ(nlohmann::json::parse(two.out)["texture_tests"], 0);
+  // A file for another scene is rejected.
+  f.geometries.pop_back();
+  ASSERT_TRUE(writeSommFile(d.file("short.somm"), f).ok());
+  const auto bad = runSomm("render " + kOak + view + " --omm " + d.file("short.somm") +
+                           " --method omm4-flat -o " + d.file("b.png"));
+  EXPECT_EQ(bad.exitCode, 1);
+  EXPECT_NE(bad.err.find("geometries"), std::string::npos);
+  EXPECT_FALSE(std::filesystem::exists(d.file("b.png")));
 }
 
 }  // namespace

@@ -83,6 +83,10 @@ uint8_t fillByte(Format f, State s) {
   return uint8_t(v | (v << 2) | (v << 4) | (v << 6));
 }
 
+// Linear filter: regions touching at most this many cells get the exact bilinear bound (leaves / inner
+// nodes).
+constexpr int64_t kLeafCells = 1024, kNodeCells = 16;
+
 // Rows of cells beyond which a region is declared mixed without enumerating (still conservative).
 constexpr int64_t kMaxRows = int64_t(1) << 22;
 
@@ -104,39 +108,167 @@ struct TriangleClassifier {
     return (c.pass > 0 ? kPass : 0u) | (c.pass < c.total ? kFail : 0u);
   }
 
-  // kPass / kFail / kMixed for the closed triangle (X, Y) grown by the margin (Minkowski sum with a square).
-  unsigned region(const double X[3], const double Y[3]) const noexcept {
+  // The x-extent [xl, xr] of the triangle within the horizontal slab [ya, yb]; false when they do not meet.
+  static bool slabExtent(const double X[3], const double Y[3], double ya, double yb, double& xl,
+                         double& xr) noexcept {
+    xl = std::numeric_limits<double>::infinity();
+    xr = -xl;
+    for (int k = 0; k < 3; ++k) {
+      if (Y[k] >= ya && Y[k] <= yb) {
+        xl = std::min(xl, X[k]);
+        xr = std::max(xr, X[k]);
+      }
+      const int k1 = k == 2 ? 0 : k + 1;
+      const double dy = Y[k1] - Y[k];
+      for (const double c : {ya, yb}) {
+        if ((Y[k] < c && Y[k1] > c) || (Y[k] > c && Y[k1] < c)) {
+          const double x = X[k] + (c - Y[k]) / dy * (X[k1] - X[k]);
+          xl = std::min(xl, x);
+          xr = std::max(xr, x);
+        }
+      }
+    }
+    return xl <= xr;
+  }
+
+  static unsigned decide(double lo, double hi, float cutoff, double tol) noexcept {
+    if (lo >= double(cutoff) + tol) return kPass;
+    if (hi < double(cutoff) - tol) return kFail;
+    return kMixed;  // also NaN
+  }
+
+  // Range of f = A + Bx + Cy + Dxy over the convex polygon (px, py): its vertices and the stationary points
+  // of its restriction to each edge.
+  static void polygonRange(double A, double B, double C, double D, const double* px, const double* py, int n,
+                           double& lo, double& hi) noexcept {
+    auto f = [&](double x, double y) { return A + B * x + C * y + D * x * y; };
+    lo = std::numeric_limits<double>::infinity();
+    hi = -lo;
+    for (int q = 0; q < n; ++q) {
+      const double v = f(px[q], py[q]);
+      lo = std::min(lo, v);
+      hi = std::max(hi, v);
+      const int q1 = q + 1 == n ? 0 : q + 1;
+      const double ex = px[q1] - px[q], ey = py[q1] - py[q];
+      const double q2 = D * ex * ey;
+      if (q2 != 0) {
+        const double ts = -(B * ex + C * ey + D * (px[q] * ey + py[q] * ex)) / (2 * q2);
+        if (ts > 0 && ts < 1) {
+          const double w = f(px[q] + ts * ex, py[q] + ts * ey);
+          lo = std::min(lo, w);
+          hi = std::max(hi, w);
+        }
+      }
+    }
+    if (std::isnan(lo) || std::isnan(hi)) lo = hi = std::numeric_limits<double>::quiet_NaN();
+  }
+
+  // The exact-per-cell bound: T (cell-local) clipped to [−m, 1 + m]² (Sutherland–Hodgman), then polygonRange.
+  unsigned clippedCell(double A, double B, double C, double D, const double tx[3], const double ty[3],
+                       double grow, float cutoff, double tol) const noexcept {
+    const double m = margin;
+    double buf[2][2][48];  // each clip at most doubles the count (3 · 2^4)
+    double *px = buf[0][0], *py = buf[0][1], *qx = buf[1][0], *qy = buf[1][1];
+    int n = 3;
+    std::copy(tx, tx + 3, px);
+    std::copy(ty, ty + 3, py);
+    for (int side = 0; side < 4 && n > 0; ++side) {
+      const bool isX = side < 2;
+      const double c = (side & 1) ? 1 + m : -m;
+      const double sign = (side & 1) ? -1.0 : 1.0;  // inside: sign · (coord − c) >= 0
+      int o = 0;
+      for (int q = 0; q < n; ++q) {
+        const int q1 = q + 1 == n ? 0 : q + 1;
+        const double d0 = sign * ((isX ? px[q] : py[q]) - c), d1 = sign * ((isX ? px[q1] : py[q1]) - c);
+        if (d0 >= 0) {
+          qx[o] = px[q];
+          qy[o++] = py[q];
+        }
+        if ((d0 >= 0) != (d1 >= 0)) {
+          const double u = d0 / (d0 - d1);
+          qx[o] = isX ? c : px[q] + u * (px[q1] - px[q]);
+          qy[o++] = isX ? py[q] + u * (py[q1] - py[q]) : c;
+        }
+      }
+      n = o;
+      std::swap(px, qx);
+      std::swap(py, qy);
+    }
+    if (n == 0) return 0;  // T does not come within m of the cell
+    double lo, hi;
+    polygonRange(A, B, C, D, px, py, n, lo, hi);
+    return decide(lo - grow, hi + grow, cutoff, tol);
+  }
+
+  // kPass / kFail / kMixed for the closed triangle (X, Y) grown by the margin (Minkowski sum with a square):
+  // the cells it touches all pass / all fail / neither. `cellLimit`: for the linear filter, regions touching
+  // at most this many cells get the exact bilinear bound (bilinearCells) instead of the four-corner bound.
+  unsigned region(const double X[3], const double Y[3], int64_t cellLimit) const noexcept {
     const double m = margin;
     const int64_t i0 = texelFloor(min3(X) - m), i1 = texelFloor(max3(X) + m);
     const int64_t j0 = texelFloor(min3(Y) - m), j1 = texelFloor(max3(Y) + m);
     const unsigned box = rect(i0, i1, j0, j1);
-    if (box != kMixed || j0 == j1) return box;
+    if (box != kMixed) return box;
+    if (ext && (i1 - i0 + 1) * (j1 - j0 + 1) <= cellLimit) return bilinearCells(X, Y, j0, j1);
+    if (j0 == j1) return box;
     if (j1 - j0 > kMaxRows) return kMixed;
     // Exact: per row of cells, the x-extent of the grown triangle within the row.
     unsigned acc = 0;
     for (int64_t j = j0; j <= j1; ++j) {
-      const double ya = double(j) - m, yb = double(j + 1) + m;
-      double xl = std::numeric_limits<double>::infinity(), xr = -xl;
-      for (int k = 0; k < 3; ++k) {
-        if (Y[k] >= ya && Y[k] <= yb) {
-          xl = std::min(xl, X[k]);
-          xr = std::max(xr, X[k]);
-        }
-        const int k1 = k == 2 ? 0 : k + 1;
-        const double dy = Y[k1] - Y[k];
-        for (const double c : {ya, yb}) {
-          if ((Y[k] < c && Y[k1] > c) || (Y[k] > c && Y[k1] < c)) {
-            const double x = X[k] + (c - Y[k]) / dy * (X[k1] - X[k]);
-            xl = std::min(xl, x);
-            xr = std::max(xr, x);
-          }
-        }
-      }
-      if (!(xl <= xr)) continue;
+      double xl, xr;
+      if (!slabExtent(X, Y, double(j) - m, double(j + 1) + m, xl, xr)) continue;
       acc |= rect(texelFloor(xl - m), texelFloor(xr + m), j, j);
       if (acc == kMixed) return kMixed;
     }
     return acc;
+  }
+
+  // Linear filter, exact per cell: for every cell the grown triangle touches (row runs as in region()), a
+  // cell whose four corners agree is decided by them; otherwise the bilinear surface f of the cell is bounded
+  // over the part of the grown triangle inside the cell. That part is within distance m (per axis) of T ∩
+  // (cell ⊕ square m): clip T to the cell grown by m, bound f (extended as the same polynomial) there — a
+  // bilinear function takes its extremes over a convex polygon on the boundary, at a vertex or where its
+  // restriction to an edge (a quadratic) is stationary — and widen by m times the gradient bound. Values
+  // within 1e-6 of the cutoff stay unknown (sampleAlpha's rounding).
+  unsigned bilinearCells(const double X[3], const double Y[3], int64_t j0, int64_t j1) const noexcept {
+    const double m = margin;
+    const AlphaTexture& t = *mask.texture();
+    const Sampler& smp = mask.sampler();
+    const float cutoff = mask.cutoff();
+    const double tol = 1e-6 * std::max(1.0, std::fabs(double(cutoff)));
+    unsigned acc = 0;
+    for (int64_t j = j0; j <= j1; ++j) {
+      double xl, xr;
+      if (!slabExtent(X, Y, double(j) - m, double(j + 1) + m, xl, xr)) continue;
+      const uint32_t ya = wrapTexel(j, t.height, smp.wrapT), yb = wrapTexel(j + 1, t.height, smp.wrapT);
+      const int64_t a = texelFloor(xl - m), b = texelFloor(xr + m);
+      for (int64_t i = a; i <= b; ++i) {
+        const uint32_t xa = wrapTexel(i, t.width, smp.wrapS), xb = wrapTexel(i + 1, t.width, smp.wrapS);
+        const float c00 = t.at(xa, ya), c10 = t.at(xb, ya), c01 = t.at(xa, yb), c11 = t.at(xb, yb);
+        const int passes = alphaTestPasses(c00, cutoff) + alphaTestPasses(c10, cutoff) +
+                           alphaTestPasses(c01, cutoff) + alphaTestPasses(c11, cutoff);
+        if (passes == 4 || passes == 0) {
+          acc |= passes ? kPass : kFail;
+          if (acc == kMixed) return kMixed;
+          continue;
+        }
+        const double A = c00, B = double(c10) - A, C = double(c01) - A, D = double(c11) - c10 - c01 + A;
+        const double grow = m * (std::fabs(B) + std::fabs(C) + 2 * std::fabs(D) * (1 + 2 * m));
+        double px[3], py[3];
+        for (int k = 0; k < 3; ++k) {
+          px[k] = X[k] - double(i);
+          py[k] = Y[k] - double(j);
+        }
+        // Cheap first: the cell's polynomial over the whole of T (a superset of T's part near the cell).
+        double lo, hi;
+        polygonRange(A, B, C, D, px, py, 3, lo, hi);
+        unsigned cls = decide(lo - grow, hi + grow, cutoff, tol);
+        if (cls == kMixed) cls = clippedCell(A, B, C, D, px, py, grow, cutoff, tol);
+        acc |= cls;
+        if (acc == kMixed) return kMixed;
+      }
+    }
+    return acc ? acc : kMixed;
   }
 
   void fill(uint32_t start, uint32_t count, State s) noexcept {
@@ -196,7 +328,9 @@ struct TriangleClassifier {
     // Child order of the bird curve (see indexToMicroTriangle).
     const double cX[4][3] = {{ax, abx, acx}, {acx, bcx, abx}, {abx, bx, bcx}, {bcx, acx, cx}};
     const double cY[4][3] = {{ay, aby, acy}, {acy, bcy, aby}, {aby, by, bcy}, {bcy, acy, cy}};
-    for (uint32_t c = 0; c < 4; ++c) node(cX[c], cY[c], depth + 1, prefix * 4 + c, region(cX[c], cY[c]));
+    const int64_t limit = depth + 1 == level ? kLeafCells : kNodeCells;
+    for (uint32_t c = 0; c < 4; ++c)
+      node(cX[c], cY[c], depth + 1, prefix * 4 + c, region(cX[c], cY[c], limit));
   }
 };
 
@@ -242,7 +376,7 @@ void bakeOne(const AlphaMask& mask, std::array<float, 2> uv0, std::array<float, 
     X[k] -= c.shift;
     Y[k] -= c.shift;
   }
-  const unsigned r = c.region(X, Y);
+  const unsigned r = c.region(X, Y, level == 0 ? kLeafCells : kNodeCells);
   if (r == kPass || r == kFail) {
     out.uniform = r == kPass ? State::Opaque : State::Transparent;
     return;

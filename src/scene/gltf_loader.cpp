@@ -623,6 +623,12 @@ Result<Scene> GltfLoader::run(bool binary) {
     return fail(ErrorCode::CorruptFile, msg);
   }
   splitLines(warn, scene_.warnings);
+  // Extensions that change how geometry or images must be read cannot be ignored.
+  for (const std::string& ext : model_.extensionsRequired) {
+    const bool supported = ext == "KHR_texture_transform" || ext == "KHR_mesh_quantization" ||
+                           ext.rfind("KHR_materials_", 0) == 0;
+    if (!supported) return fail(ErrorCode::UnsupportedFormat, "requires the unsupported extension " + ext);
+  }
   scene_.sourcePath = path_;
   Status st = loadMaterials();
   if (!st.ok()) return st.error();

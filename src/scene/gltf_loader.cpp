@@ -174,7 +174,23 @@ class GltfLoader {
   int defaultMaterial_ = -1;
   std::vector<uint32_t> firstGeometry_;  // per mesh
   std::map<int, std::shared_ptr<const RawImage>> images_;
+  size_t bufferBytes_ = 0;
+  uint64_t materialised_ = 0;
+  Status charge(const std::string& what, size_t vertices, size_t indices);
 };
+
+Status GltfLoader::charge(const std::string& what, size_t vertices, size_t indices) {
+  if (bufferBytes_ == 0)
+    for (const tinygltf::Buffer& b : model_.buffers) bufferBytes_ += b.data.size();
+  // 20 bytes per vertex (xyz + uv floats), 4 per index.
+  materialised_ += uint64_t(vertices) * 20 + uint64_t(indices) * 4;
+  const uint64_t limit = (uint64_t(64) << 20) + 16 * uint64_t(bufferBytes_);
+  if (materialised_ > limit)
+    return fail(ErrorCode::LimitExceeded, what + ": the scene's vertices and indices would take " +
+                                              std::to_string(materialised_) + " bytes, more than 16x its " +
+                                              std::to_string(bufferBytes_) + " buffer bytes + 64 MiB");
+  return Ok{};
+}
 
 Result<AccessorView> GltfLoader::view(int index, const std::string& what, int expectType) const {
   if (index < 0 || size_t(index) >= model_.accessors.size())
@@ -195,7 +211,8 @@ Result<AccessorView> GltfLoader::view(int index, const std::string& what, int ex
   v.normalized = a.normalized;
   const size_t elem = size_t(compSize) * size_t(comps);
   if (a.bufferView < 0) {
-    if (a.count > (size_t(1) << 31)) return fail(ErrorCode::LimitExceeded, name + ": too many elements");
+    // All zeros, backed by no data: bounded by a constant, not by the file (docs/hardening.md, memory bounds).
+    if (a.count > (size_t(1) << 20)) return fail(ErrorCode::LimitExceeded, name + ": too many elements");
     return v;  // all zeros
   }
   if (size_t(a.bufferView) >= model_.bufferViews.size())
@@ -285,7 +302,7 @@ Status GltfLoader::loadMaterials() {
         m.alphaMode = AlphaMode::Blend;
         scene_.warnings.push_back(
             "material '" + m.name +
-            "' uses alphaMode BLEND: not alpha-tested, no micromaps (use blend-as-mask)");
+            "' uses alphaMode BLEND: not alpha-tested, no micromaps (--blend-as-mask bakes it as MASK)");
       }
     } else if (gm.alphaMode.empty() || gm.alphaMode == "OPAQUE") {
       m.alphaMode = AlphaMode::Opaque;
@@ -422,6 +439,13 @@ Status GltfLoader::loadGeometries() {
       if (!pos.ok()) return pos.error();
       const size_t n = pos->count;
       if (n > 0xFFFFFFFFu) return fail(ErrorCode::LimitExceeded, what + ": too many vertices");
+      // Memory bound: primitives may share accessors, so the vertices and indices materialised over the whole scene
+      // are capped at a multiple of the buffer bytes (a small file must not expand to gigabytes).
+      if (Status b = charge(what, n, prim.indices >= 0 && size_t(prim.indices) < model_.accessors.size()
+                                         ? model_.accessors[size_t(prim.indices)].count
+                                         : n);
+          !b.ok())
+        return b;
       g.positions.resize(n * 3);
       for (size_t i = 0; i < n; ++i)
         for (int c = 0; c < 3; ++c) g.positions[i * 3 + size_t(c)] = float(pos->component(i, c));
@@ -599,6 +623,12 @@ Result<Scene> GltfLoader::run(bool binary) {
     return fail(ErrorCode::CorruptFile, msg);
   }
   splitLines(warn, scene_.warnings);
+  // Extensions that change how geometry or images must be read cannot be ignored.
+  for (const std::string& ext : model_.extensionsRequired) {
+    const bool supported = ext == "KHR_texture_transform" || ext == "KHR_mesh_quantization" ||
+                           ext.rfind("KHR_materials_", 0) == 0;
+    if (!supported) return fail(ErrorCode::UnsupportedFormat, "requires the unsupported extension " + ext);
+  }
   scene_.sourcePath = path_;
   Status st = loadMaterials();
   if (!st.ok()) return st.error();

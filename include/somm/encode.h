@@ -1,0 +1,400 @@
+// somm — succinct micromap encodings with random access (see docs/encodings.md for the exact bit layouts).
+//
+// Per micromap ("map kind"):
+//   flat  — the spec layout (VK_EXT_opacity_micromap): 4^L states, LSB-first.
+//   dfs   — Waldemarson & Doggett's tree: uniform equal sibling groups collapsed bottom-up, pre-order
+//   bit-vector T
+//           (1 = internal, 0 = leaf; nodes at the last level carry a 0 bit so that skipping is pure counting)
+//           and the leaf values in the same order. Two lookups over the same bits: the paper's bit-by-bit
+//           count (Encoding::Dfs) and a word-at-a-time popcount skip (Encoding::DfsFast).
+//   rank  — the same tree in level order (k²-tree / LOUDS style): one flag per node above the last level, a
+//   rank
+//           directory next to the flags, the children of internal node x at 1 + 4·rank1(x); last-level nodes
+//           are plain states without flags. One bit test and one rank per level.
+// Per geometry, an EncodedArray holds the spec index buffer, one 8-byte descriptor per unique micromap and
+// the encoded data; Encoding::Hybrid chooses per micromap the smallest of flat / dfs / rank (the kind sits in
+// the descriptor).
+//
+// Lookups (state, stateUV) are inline, noexcept, allocation-free and touch only the triangle's index,
+// descriptor and micromap bytes. Data words are read with unaligned little-endian 64-bit loads; the data
+// buffer ends with kTailPadding zero bytes so that every such load stays inside it.
+#pragma once
+
+#include <array>
+#include <bit>
+#include <cstdint>
+#include <cstring>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "somm/micromap.h"
+#include "somm/omm_array.h"
+#include "somm/result.h"
+
+static_assert(std::endian::native == std::endian::little, "somm encodings assume a little-endian host");
+
+namespace somm {
+
+enum class Encoding : uint8_t { Flat = 0, Dfs = 1, DfsFast = 2, Rank = 3, Hybrid = 4 };
+inline constexpr Encoding kAllEncodings[] = {Encoding::Flat, Encoding::Dfs, Encoding::DfsFast, Encoding::Rank,
+                                             Encoding::Hybrid};
+
+// "flat", "dfs", "dfs-fast", "rank", "hybrid".
+const char* encodingName(Encoding e) noexcept;
+std::optional<Encoding> parseEncodingName(std::string_view name) noexcept;
+// A comma-separated list of names or "all" (every encoding, in kAllEncodings order; duplicates removed).
+Result<std::vector<Encoding>> parseEncodingList(std::string_view list);
+
+// How one micromap is stored.
+enum class MapKind : uint8_t { Flat = 0, Dfs = 1, Rank = 2 };
+const char* mapKindName(MapKind k) noexcept;
+
+namespace encode {
+
+inline constexpr uint32_t kTailPadding = 8;        // zero bytes after the data buffer of every non-flat array
+inline constexpr uint32_t kRankBlockBits = 256;    // rank directory: one cumulative count per 256 flag bits
+inline constexpr uint32_t kArrayHeaderBytes = 20;  // serialized EncodedArray header
+inline constexpr uint32_t kDescriptorBytes = 8;
+
+// Width of the count fields in dfs / rank headers: enough for (4^L - 1) / 3, the internal nodes of a full
+// tree.
+constexpr uint32_t countFieldBits(uint32_t level) noexcept {
+  return level == 0 ? 0u : 2u * level - 1u;
+}
+constexpr uint32_t dfsHeaderBytes(uint32_t level) noexcept {
+  return (countFieldBits(level) + 7u) / 8u;
+}
+constexpr uint32_t rankHeaderBytes(uint32_t level) noexcept {
+  return (2u * countFieldBits(level) + 7u) / 8u;
+}
+// Width of a rank directory counter: 16 bits while the map has fewer than 65536 internal nodes, else 32.
+constexpr uint32_t rankCounterBits(uint64_t internal) noexcept {
+  return internal < 65536u ? 16u : 32u;
+}
+constexpr uint64_t rankDirectoryCounters(uint64_t flagBits) noexcept {
+  const uint64_t blocks = (flagBits + kRankBlockBits - 1) / kRankBlockBits;
+  return blocks == 0 ? 0 : blocks - 1;
+}
+
+// The shape of a map's collapsed tree: internal nodes in total and at depth level-1 (whose children are
+// last-level nodes). Leaves = 3·internal + 1; dfs bits T = 4·internal + 1; rank flags = 1 + 4·(internal -
+// internalAtLastParent) (zero at level 0).
+struct TreeShape {
+  uint64_t internal = 0;
+  uint64_t internalAboveLast = 0;  // internal nodes at depth level-1
+};
+TreeShape treeShape(const Micromap& map);
+
+// Exact byte sizes of one encoded micromap (docs/encodings.md).
+constexpr uint64_t flatMapBytes(uint32_t level, Format f) noexcept {
+  return micromapDataBytes(level, f);
+}
+constexpr uint64_t dfsMapBytes(uint32_t level, Format f, const TreeShape& s) noexcept {
+  const uint64_t bits = 4 * s.internal + 1 + uint64_t(bitsPerState(f)) * (3 * s.internal + 1);
+  return dfsHeaderBytes(level) + (bits + 7) / 8;
+}
+constexpr uint64_t rankFlagBits(uint32_t level, const TreeShape& s) noexcept {
+  return level == 0 ? 0 : 1 + 4 * (s.internal - s.internalAboveLast);
+}
+constexpr uint64_t rankMapBytes(uint32_t level, Format f, const TreeShape& s) noexcept {
+  const uint64_t nf = rankFlagBits(level, s);
+  const uint64_t bits = nf + rankCounterBits(s.internal) * rankDirectoryCounters(nf) +
+                        uint64_t(bitsPerState(f)) * (3 * s.internal + 1);
+  return rankHeaderBytes(level) + (bits + 7) / 8;
+}
+
+// ---- bit access (little-endian, LSB-first) ----
+// Population count without a library call: the popcnt instruction when the build targets it (-mpopcnt,
+// -march=x86-64-v2 or later), otherwise SWAR (std::popcount would call libgcc's __popcountdi2 on baseline
+// x86-64).
+inline uint32_t popcount64(uint64_t x) noexcept {
+#if defined(__POPCNT__) || !(defined(__x86_64__) || defined(__i386__))
+  return uint32_t(std::popcount(x));
+#else
+  x = x - ((x >> 1) & 0x5555555555555555ull);
+  x = (x & 0x3333333333333333ull) + ((x >> 2) & 0x3333333333333333ull);
+  x = (x + (x >> 4)) & 0x0f0f0f0f0f0f0f0full;
+  return uint32_t((x * 0x0101010101010101ull) >> 56);
+#endif
+}
+inline constexpr auto kBytePopcount = [] {
+  std::array<uint8_t, 256> t{};
+  for (int b = 0; b < 256; ++b) t[size_t(b)] = uint8_t(std::popcount(uint32_t(b)));
+  return t;
+}();
+
+inline uint64_t load64(const uint8_t* p) noexcept {
+  uint64_t w;
+  std::memcpy(&w, p, 8);
+  return w;
+}
+inline uint32_t getBit(const uint8_t* p, uint64_t bit) noexcept {
+  return (p[bit >> 3] >> (bit & 7u)) & 1u;
+}
+// n <= 32 bits starting at bit offset `bit`; reads 8 bytes from byte bit/8.
+inline uint32_t getBits(const uint8_t* p, uint64_t bit, uint32_t n) noexcept {
+  return uint32_t((load64(p + (bit >> 3)) >> (bit & 7u)) & ((uint64_t(1) << n) - 1u));
+}
+inline State getValue(const uint8_t* p, uint64_t base, Format f, uint64_t i) noexcept {
+  if (f == Format::TwoState) return State(getBit(p, base + i));
+  const uint64_t b = base + 2 * i;  // may straddle a byte when base is odd
+  return State(((uint32_t(p[b >> 3]) | uint32_t(p[(b >> 3) + 1]) << 8) >> (b & 7u)) & 3u);
+}
+inline uint32_t digitAt(uint32_t index, uint32_t level, uint32_t depth) noexcept {
+  return (index >> (2u * (level - 1u - depth))) & 3u;
+}
+
+// ---- per-map lookups (blob = first byte of the encoded micromap) ----
+inline State flatState(const uint8_t* blob, uint32_t /*level*/, Format f, uint32_t index) noexcept {
+  return readPackedState(blob, f, index);
+}
+
+// The paper's lookup: descend; at an internal node skip the earlier sibling subtrees bit by bit, counting:
+// each bit consumes one pending node, a 1 adds four, a 0 is a leaf.
+inline State dfsState(const uint8_t* blob, uint32_t level, Format f, uint32_t index) noexcept {
+  const uint32_t w = countFieldBits(level);
+  const uint64_t internal = w ? getBits(blob, 0, w) : 0;
+  const uint8_t* t = blob + dfsHeaderBytes(level);
+  uint64_t pos = 0, leaf = 0;
+  for (uint32_t d = 0; d < level; ++d) {
+    if (!getBit(t, pos)) break;
+    ++pos;
+    uint64_t need = digitAt(index, level, d);
+    while (need != 0) {
+      const uint32_t b = getBit(t, pos++);
+      need = need - 1 + 4 * b;
+      leaf += 1 - b;
+    }
+  }
+  return getValue(t, 4 * internal + 1, f, leaf);
+}
+
+// For the word-at-a-time skip: kSkipEnd[n-1][b] is the bit (1..8) of byte b (LSB first) at which a pending
+// count of n (1..8) reaches zero — each 1 adds three, each 0 removes one — or 0 if it stays positive over all
+// 8 bits. A count above 8 cannot reach zero within a byte.
+inline constexpr auto kSkipEnd = [] {
+  std::array<std::array<uint8_t, 256>, 8> t{};
+  for (int n = 1; n <= 8; ++n)
+    for (int b = 0; b < 256; ++b) {
+      int need = n;
+      for (int i = 0; i < 8; ++i) {
+        need += ((b >> i) & 1) ? 3 : -1;
+        if (need == 0) {
+          t[size_t(n - 1)][size_t(b)] = uint8_t(i + 1);
+          break;
+        }
+      }
+    }
+  return t;
+}();
+
+// Same bits; bit steps up to a byte boundary, then a whole 64-bit word at once (popcount) at word boundaries
+// when the pending count exceeds the word's zeros — each 0 lowers the count by one, so it cannot reach zero
+// inside — and otherwise a byte at a time (kSkipEnd finds where the skip ends inside the last byte).
+inline State dfsFastState(const uint8_t* blob, uint32_t level, Format f, uint32_t index) noexcept {
+  const uint32_t w = countFieldBits(level);
+  const uint64_t internal = w ? getBits(blob, 0, w) : 0;
+  const uint8_t* t = blob + dfsHeaderBytes(level);
+  uint64_t pos = 0, leaf = 0;
+  for (uint32_t d = 0; d < level; ++d) {
+    if (!getBit(t, pos)) break;
+    ++pos;
+    uint64_t need = digitAt(index, level, d);
+    while (need != 0 && (pos & 7u) != 0) {
+      const uint32_t b = getBit(t, pos++);
+      need = need - 1 + 4 * b;
+      leaf += 1 - b;
+    }
+    while (need != 0) {
+      if ((pos & 63u) == 0) {
+        const uint32_t ones = popcount64(load64(t + (pos >> 3)));
+        if (need > 64u - ones) {
+          need = need + 4 * ones - 64;
+          leaf += 64 - ones;
+          pos += 64;
+          continue;
+        }
+      }
+      const uint32_t byte = t[pos >> 3];
+      if (need <= 8) {
+        const uint32_t end = kSkipEnd[need - 1][byte];
+        if (end != 0) {
+          leaf += end - kBytePopcount[byte & ((1u << end) - 1u)];
+          pos += end;
+          break;
+        }
+      }
+      const uint32_t p = kBytePopcount[byte];
+      need = need + 4 * p - 8;
+      leaf += 8 - p;
+      pos += 8;
+    }
+  }
+  return getValue(t, 4 * internal + 1, f, leaf);
+}
+
+// Level-order tree: flag bit x (1 = internal) for nodes above the last level, children of x at 1 +
+// 4·rank1(x), value of leaf x at x - rank1(min(x, flags)).
+inline State rankState(const uint8_t* blob, uint32_t level, Format f, uint32_t index) noexcept {
+  if (level == 0) return getValue(blob, 0, f, 0);
+  const uint32_t w = countFieldBits(level);
+  const uint64_t internal = getBits(blob, 0, w);
+  const uint64_t nf = getBits(blob, w, w);
+  const uint8_t* fl = blob + rankHeaderBytes(level);
+  const uint32_t cw = rankCounterBits(internal);
+  const uint64_t valueBase = nf + cw * rankDirectoryCounters(nf);
+  uint64_t x = 0;
+  for (uint32_t d = 0; d < level; ++d) {
+    const uint64_t wordIndex = x >> 6;
+    const uint64_t word = load64(fl + (wordIndex << 3));
+    const uint32_t sh = uint32_t(x & 63u);
+    uint64_t r = popcount64(word & ((uint64_t(1) << sh) - 1u));
+    const uint64_t block = x / kRankBlockBits;
+    if (block != 0) r += getBits(fl, nf + cw * (block - 1), cw);
+    for (uint64_t k = block * (kRankBlockBits / 64); k < wordIndex; ++k)
+      r += popcount64(load64(fl + (k << 3)));
+    if (!((word >> sh) & 1u)) return getValue(fl, valueBase, f, x - r);
+    x = 1 + 4 * r + digitAt(index, level, d);
+  }
+  return getValue(fl, valueBase, f, x - internal);
+}
+
+// Encode / decode one map. Encoding a map is deterministic and canonical (maximal collapse).
+std::vector<uint8_t> encodeMap(const Micromap& map, MapKind kind);
+// Decodes a blob produced by encodeMap (trusted input).
+Micromap decodeMap(const uint8_t* blob, MapKind kind, uint32_t level, Format f);
+// Checks an untrusted blob of `available` bytes; on success returns its exact size in bytes. Guarantees that
+// every lookup into it stays within those bytes (plus kTailPadding).
+Result<uint64_t> validateMap(const uint8_t* blob, uint64_t available, MapKind kind, uint32_t level, Format f);
+
+}  // namespace encode
+
+// Descriptor of one encoded micromap: 8 bytes on disk (u32 offset, u8 level, u8 format, u8 kind, u8 zero).
+struct EncodedMapDesc {
+  uint32_t offset = 0;
+  uint8_t level = 0;
+  uint8_t format = 1;
+  MapKind kind = MapKind::Flat;
+  uint8_t reserved = 0;
+  friend bool operator==(const EncodedMapDesc&, const EncodedMapDesc&) = default;
+};
+
+// One geometry's micromaps in one encoding, with random access.
+class EncodedArray {
+ public:
+  EncodedArray() = default;
+
+  Encoding encoding() const noexcept { return encoding_; }
+  uint32_t triangleCount() const noexcept { return uint32_t(indices_.size()); }
+  uint32_t mapCount() const noexcept { return uint32_t(maps_.size()); }
+  std::span<const int32_t> indices() const noexcept { return indices_; }
+  std::span<const EncodedMapDesc> maps() const noexcept { return maps_; }
+  // The data bytes, without the tail padding.
+  std::span<const uint8_t> data() const noexcept { return {data_.data(), dataBytes_}; }
+  IndexType indexType() const noexcept { return indexType_; }
+
+  // Exact sizes: the serialized form, which is also what a GPU needs for random access (docs/encodings.md):
+  //   byteSize = 20 + triangles·indexBytes + 8·maps + dataBytes + padding.
+  uint64_t dataBytes() const noexcept { return dataBytes_; }
+  uint64_t paddingBytes() const noexcept { return data_.size() - dataBytes_; }
+  uint64_t byteSize() const noexcept {
+    return encode::kArrayHeaderBytes + uint64_t(indices_.size()) * uint64_t(indexType_) +
+           uint64_t(maps_.size()) * encode::kDescriptorBytes + data_.size();
+  }
+
+  // State of micro-triangle `index` (< 4^level of that triangle's map) of `triangle`.
+  State state(uint32_t triangle, uint32_t index) const noexcept {
+    switch (encoding_) {
+      case Encoding::Flat:
+        return stateAs<Encoding::Flat>(triangle, index);
+      case Encoding::Dfs:
+        return stateAs<Encoding::Dfs>(triangle, index);
+      case Encoding::DfsFast:
+        return stateAs<Encoding::DfsFast>(triangle, index);
+      case Encoding::Rank:
+        return stateAs<Encoding::Rank>(triangle, index);
+      case Encoding::Hybrid:
+        return stateAs<Encoding::Hybrid>(triangle, index);
+    }
+    return State::Transparent;
+  }
+  State stateUV(uint32_t triangle, float u, float v) const noexcept {
+    switch (encoding_) {
+      case Encoding::Flat:
+        return stateUVAs<Encoding::Flat>(triangle, u, v);
+      case Encoding::Dfs:
+        return stateUVAs<Encoding::Dfs>(triangle, u, v);
+      case Encoding::DfsFast:
+        return stateUVAs<Encoding::DfsFast>(triangle, u, v);
+      case Encoding::Rank:
+        return stateUVAs<Encoding::Rank>(triangle, u, v);
+      case Encoding::Hybrid:
+        return stateUVAs<Encoding::Hybrid>(triangle, u, v);
+    }
+    return State::Transparent;
+  }
+
+  // The same with the encoding fixed at compile time (E must equal encoding()).
+  template <Encoding E>
+  State stateAs(uint32_t triangle, uint32_t index) const noexcept {
+    const int32_t i = indices_[triangle];
+    if (i < 0) return stateOfSpecialIndex(i);
+    const EncodedMapDesc& d = maps_[size_t(i)];
+    return mapState<E>(d, index);
+  }
+  template <Encoding E>
+  State stateUVAs(uint32_t triangle, float u, float v) const noexcept {
+    const int32_t i = indices_[triangle];
+    if (i < 0) return stateOfSpecialIndex(i);
+    const EncodedMapDesc& d = maps_[size_t(i)];
+    return mapState<E>(d, baryToIndex(u, v, d.level));
+  }
+
+  template <Encoding E>
+  State mapState(const EncodedMapDesc& d, uint32_t index) const noexcept {
+    const uint8_t* blob = data_.data() + d.offset;
+    const Format f = Format(d.format);
+    if constexpr (E == Encoding::Flat) return encode::flatState(blob, d.level, f, index);
+    if constexpr (E == Encoding::Dfs) return encode::dfsState(blob, d.level, f, index);
+    if constexpr (E == Encoding::DfsFast) return encode::dfsFastState(blob, d.level, f, index);
+    if constexpr (E == Encoding::Rank) return encode::rankState(blob, d.level, f, index);
+    if constexpr (E == Encoding::Hybrid) {
+      switch (d.kind) {
+        case MapKind::Flat:
+          return encode::flatState(blob, d.level, f, index);
+        case MapKind::Dfs:
+          return encode::dfsFastState(blob, d.level, f, index);
+        case MapKind::Rank:
+          return encode::rankState(blob, d.level, f, index);
+      }
+    }
+    return State::Transparent;
+  }
+
+  // Builds the encoded form of `array` (checks the array: offsets in range, valid levels/formats/indices).
+  static Result<EncodedArray> build(const OmmArray& array, Encoding encoding);
+  // Back to the spec buffers: micromaps in descriptor order at contiguous offsets, usage histograms as
+  // OmmArrayBuilder computes them. Bit-exact against an array made by OmmArrayBuilder.
+  OmmArray decode() const;
+
+  std::vector<uint8_t> serialize() const;
+  // Validating parser: any byte string either parses into an array whose every lookup stays in bounds or
+  // yields a CorruptFile / UnsupportedFormat error with a one-line message prefixed by `what` (e.g. a file
+  // name).
+  static Result<EncodedArray> parse(std::span<const uint8_t> bytes, std::string_view what = "encoded array");
+
+  friend bool operator==(const EncodedArray&, const EncodedArray&) = default;
+
+ private:
+  Encoding encoding_ = Encoding::Flat;
+  IndexType indexType_ = IndexType::UInt16;
+  std::vector<int32_t> indices_;
+  std::vector<EncodedMapDesc> maps_;
+  std::vector<uint8_t> data_;  // dataBytes_ + padding
+  uint64_t dataBytes_ = 0;
+};
+
+}  // namespace somm

@@ -1,0 +1,471 @@
+// Every encoding against the flat micromap oracle (one typed suite), sizes against the documented formulas,
+// round trips, and the validating parser against corrupt bytes.
+#include "somm/encode.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <random>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "somm/omm_array.h"
+
+namespace somm {
+namespace {
+
+enum class Pattern { Uniform, HalfHalf, Checker, Random, Disc, Leaf };
+constexpr Pattern kPatterns[] = {Pattern::Uniform, Pattern::HalfHalf, Pattern::Checker,
+                                 Pattern::Random,  Pattern::Disc,     Pattern::Leaf};
+
+const char* patternName(Pattern p) {
+  switch (p) {
+    case Pattern::Uniform:
+      return "uniform";
+    case Pattern::HalfHalf:
+      return "half";
+    case Pattern::Checker:
+      return "checker";
+    case Pattern::Random:
+      return "random";
+    case Pattern::Disc:
+      return "disc";
+    case Pattern::Leaf:
+      return "leaf";
+  }
+  return "?";
+}
+
+// Signed "inside" measure of a leaf silhouette in barycentric space: an ellipse along the diagonal, minus a
+// notch, with thin transparent veins. > 0 inside, small |.| near the edge.
+double leafField(double u, double v) {
+  const double cx = 0.36, cy = 0.3, a = 0.3, b = 0.14, c = std::cos(0.7), s = std::sin(0.7);
+  const double x = (u - cx) * c + (v - cy) * s, y = -(u - cx) * s + (v - cy) * c;
+  double f = 1.0 - (x * x) / (a * a) - (y * y) / (b * b);
+  if (std::abs(y) < 0.006 || std::abs(y - 0.5 * x) < 0.004) f = std::min(f, -0.01);  // veins
+  if (x > 0.22 && std::abs(y) < 0.03) f = -1.0;                                      // notch at the tip
+  return f;
+}
+
+Micromap makeMap(Pattern p, uint32_t level, Format f, uint32_t seed) {
+  Micromap m(level, f);
+  std::mt19937 rng(seed * 7919u + level * 31u + uint32_t(f));
+  const bool four = f == Format::FourState;
+  const double scale = 1.0 / double(1u << level);
+  for (uint32_t i = 0; i < m.size(); ++i) {
+    State s = State::Transparent;
+    switch (p) {
+      case Pattern::Uniform:
+        s = four ? State::UnknownOpaque : State::Opaque;
+        break;
+      case Pattern::HalfHalf:
+        s = i < m.size() / 2 ? State::Opaque : (four ? State::UnknownTransparent : State::Transparent);
+        break;
+      case Pattern::Checker:
+        s = four ? State(i & 3u) : State(i & 1u);
+        break;
+      case Pattern::Random:
+        s = State(rng() & (four ? 3u : 1u));
+        break;
+      case Pattern::Disc:
+      case Pattern::Leaf: {
+        const MicroTriangle t = indexToMicroTriangle(i, level);
+        const double u = (t.v[0].u + t.v[1].u + t.v[2].u) * scale / 3.0;
+        const double v = (t.v[0].v + t.v[1].v + t.v[2].v) * scale / 3.0;
+        double field;
+        if (p == Pattern::Disc) {
+          const double du = u - 0.33, dv = v - 0.36;
+          field = 0.28 * 0.28 - du * du - dv * dv;
+        } else {
+          field = leafField(u, v) * 0.05;
+        }
+        s = field > 0 ? State::Opaque : State::Transparent;
+        if (four && std::abs(field) < 0.35 * scale)
+          s = field > 0 ? State::UnknownOpaque : State::UnknownTransparent;
+        break;
+      }
+    }
+    m.set(i, s);
+  }
+  return m;
+}
+
+// Maps at levels 9..12 are costly to generate: shared by every encoding's tests.
+const Micromap& cachedMap(Pattern p, uint32_t level, Format f, uint32_t seed) {
+  static std::map<std::tuple<int, uint32_t, int, uint32_t>, Micromap> cache;
+  const auto key = std::make_tuple(int(p), level, int(f), seed);
+  auto it = cache.find(key);
+  if (it == cache.end()) it = cache.emplace(key, makeMap(p, level, f, seed)).first;
+  return it->second;
+}
+
+// An OmmArray holding `maps` verbatim (uniform maps too), contiguous, plus the four special indices.
+OmmArray arrayOf(const std::vector<Micromap>& maps) {
+  OmmArray a;
+  for (size_t k = 0; k < maps.size(); ++k) {
+    a.descriptors.push_back(
+        TriangleDescriptor{uint32_t(a.data.size()), uint16_t(maps[k].level()), uint16_t(maps[k].format())});
+    a.data.insert(a.data.end(), maps[k].bytes().begin(), maps[k].bytes().end());
+    a.indices.push_back(int32_t(k));
+  }
+  for (int32_t s = -1; s >= -4; --s) a.indices.push_back(s);
+  return a;
+}
+
+// Internal nodes of the collapsed tree, counted by brute force from the flat map (independent of the
+// encoder).
+encode::TreeShape bruteShape(const Micromap& m) {
+  encode::TreeShape s;
+  for (uint32_t d = 0; d < m.level(); ++d) {
+    const uint32_t span = 1u << (2 * (m.level() - d));
+    for (uint32_t start = 0; start < m.size(); start += span) {
+      bool uniform = true;
+      for (uint32_t i = start + 1; i < start + span && uniform; ++i) uniform = m.get(i) == m.get(start);
+      if (!uniform) {
+        ++s.internal;
+        if (d + 1 == m.level()) ++s.internalAboveLast;
+      }
+    }
+  }
+  return s;
+}
+
+uint64_t formulaBytes(MapKind k, const Micromap& m) {
+  const encode::TreeShape s = bruteShape(m);
+  switch (k) {
+    case MapKind::Flat:
+      return encode::flatMapBytes(m.level(), m.format());
+    case MapKind::Dfs:
+      return encode::dfsMapBytes(m.level(), m.format(), s);
+    case MapKind::Rank:
+      return encode::rankMapBytes(m.level(), m.format(), s);
+  }
+  return 0;
+}
+
+MapKind baseKind(Encoding e) {
+  switch (e) {
+    case Encoding::Dfs:
+    case Encoding::DfsFast:
+      return MapKind::Dfs;
+    case Encoding::Rank:
+      return MapKind::Rank;
+    default:
+      return MapKind::Flat;
+  }
+}
+
+bool sameArray(const OmmArray& a, const OmmArray& b) {
+  return a.data == b.data && a.descriptors == b.descriptors && a.indices == b.indices &&
+         a.histogram == b.histogram && a.triangleHistogram == b.triangleHistogram;
+}
+
+template <Encoding E>
+struct Enc {
+  static constexpr Encoding value = E;
+};
+
+template <class T>
+class EncodeTest : public ::testing::Test {
+ protected:
+  static constexpr Encoding kE = T::value;
+
+  static EncodedArray build(const OmmArray& a) {
+    auto r = EncodedArray::build(a, kE);
+    EXPECT_TRUE(r.ok());
+    return std::move(r).value();
+  }
+
+  // Number of (map, index) pairs whose state differs from the oracle, over every index of every map (every
+  // `stride`-th index past the first 4096).
+  static uint64_t mismatchesEveryIndex(const EncodedArray& e, const OmmArray& oracle, uint32_t stride = 1) {
+    uint64_t bad = 0;
+    for (uint32_t t = 0; t < oracle.indices.size(); ++t) {
+      const int32_t i = oracle.indices[t];
+      const uint32_t n = i < 0 ? 1 : microTriangleCount(oracle.descriptors[size_t(i)].subdivisionLevel);
+      for (uint32_t k = 0; k < n; k += k < 4096 ? 1 : stride) {
+        bad += e.template stateAs<kE>(t, k) != oracle.state(t, k);
+        if (k % 64 == 0) bad += e.state(t, k) != oracle.state(t, k);  // the run-time dispatch, sampled
+      }
+    }
+    return bad;
+  }
+};
+
+struct EncName {
+  template <class T>
+  static std::string GetName(int) {
+    std::string s = encodingName(T::value);
+    for (char& c : s)
+      if (c == '-') c = '_';
+    return s;
+  }
+};
+
+using AllEncodings = ::testing::Types<Enc<Encoding::Flat>, Enc<Encoding::Dfs>, Enc<Encoding::DfsFast>,
+                                      Enc<Encoding::Rank>, Enc<Encoding::Hybrid>>;
+TYPED_TEST_SUITE(EncodeTest, AllEncodings, EncName);
+
+TYPED_TEST(EncodeTest, EveryIndexLevels0To8) {
+  for (Format f : {Format::TwoState, Format::FourState})
+    for (Pattern p : kPatterns)
+      for (uint32_t level = 0; level <= 8; ++level) {
+        const OmmArray oracle = arrayOf({makeMap(p, level, f, 1)});
+        const EncodedArray e = this->build(oracle);
+        // The paper's lookup walks ~4^level/2 bits per query on a full tree (checkerboard, random): at level 8 those
+        // two maps are checked at every index below 4096 and every 7th above, to keep the suite fast under ASan.
+        const bool dfsOnFullTree = (TestFixture::kE == Encoding::Dfs || TestFixture::kE == Encoding::DfsFast) &&
+                                   (p == Pattern::Checker || p == Pattern::Random);
+        EXPECT_EQ(this->mismatchesEveryIndex(e, oracle, dfsOnFullTree ? 7 : 1), 0u)
+            << patternName(p) << " level " << level << " format " << int(f);
+      }
+}
+
+TYPED_TEST(EncodeTest, RandomIndicesAndUVLevels9To12) {
+  std::mt19937 rng(99);
+  std::uniform_real_distribution<float> unit(0.f, 1.f);
+  for (Format f : {Format::TwoState, Format::FourState})
+    for (uint32_t level = 9; level <= 12; ++level) {
+      // The paper's lookup walks ~4^level bits on a full tree: keep the degenerate maps to the lower levels.
+      std::vector<Pattern> patterns{Pattern::Disc, Pattern::Leaf, Pattern::HalfHalf};
+      if (level <= 10) patterns.insert(patterns.end(), {Pattern::Checker, Pattern::Random});
+      for (Pattern p : patterns) {
+        const OmmArray oracle = arrayOf({cachedMap(p, level, f, 2)});
+        const EncodedArray e = this->build(oracle);
+        const int n = level <= 10 && (p == Pattern::Checker || p == Pattern::Random) ? 100 : 2000;
+        uint64_t bad = 0;
+        for (int k = 0; k < n; ++k) {
+          const uint32_t idx = rng() % microTriangleCount(level);
+          bad += e.state(0, idx) != oracle.state(0, idx);
+          float u = unit(rng), v = unit(rng);
+          if (k % 3 == 0 && u + v > 1.f) {  // mostly inside, sometimes outside (clamped like the reference)
+            u = 1.f - u;
+            v = 1.f - v;
+          }
+          bad += e.stateUV(0, u, v) != oracle.stateUV(0, u, v);
+          bad += e.template stateUVAs<TestFixture::kE>(0, u, v) != oracle.stateUV(0, u, v);
+        }
+        EXPECT_EQ(bad, 0u) << patternName(p) << " level " << level << " format " << int(f);
+        // Special indices answer without data.
+        for (uint32_t t = 1; t <= 4; ++t) EXPECT_EQ(e.stateUV(t, 0.2f, 0.3f), State(t - 1));
+      }
+    }
+}
+
+// A builder-made array (dedup, special indices, mixed levels and formats): encode → decode is the identity,
+// and serialize → parse reproduces the encoded array.
+TYPED_TEST(EncodeTest, DecodeAndSerializeRoundTrip) {
+  OmmArrayBuilder b;
+  uint32_t seed = 0;
+  for (uint32_t level : {0u, 1u, 3u, 5u, 7u})
+    for (Format f : {Format::TwoState, Format::FourState})
+      for (Pattern p : kPatterns) {
+        const Micromap m = makeMap(p, level, f, ++seed);
+        b.add(m);
+        b.add(makeMap(Pattern::Disc, level, f, 0));  // duplicates
+        b.addSpecial(State(seed & 3u));
+      }
+  const OmmArray oracle = b.finish();
+  ASSERT_GT(oracle.descriptors.size(), 20u);
+  const EncodedArray e = this->build(oracle);
+  EXPECT_EQ(e.encoding(), TestFixture::kE);
+  EXPECT_TRUE(sameArray(e.decode(), oracle));
+  EXPECT_EQ(this->mismatchesEveryIndex(e, oracle), 0u);
+  const std::vector<uint8_t> bytes = e.serialize();
+  EXPECT_EQ(bytes.size(), e.byteSize());
+  auto parsed = EncodedArray::parse(bytes, "test");
+  ASSERT_TRUE(parsed.ok()) << parsed.error().message;
+  EXPECT_TRUE(*parsed == e);
+  EXPECT_TRUE(sameArray(parsed->decode(), oracle));
+  // A 32-bit index buffer (more than 0xfffb micromaps) round-trips too.
+  std::vector<Micromap> many;
+  for (uint32_t k = 0; k < 0x10003; ++k)
+    many.push_back(makeMap(Pattern::Random, k % 3, Format::FourState, k));
+  const OmmArray wide = arrayOf(many);
+  ASSERT_EQ(wide.indexType(), IndexType::UInt32);
+  const EncodedArray ew = this->build(wide);
+  EXPECT_EQ(ew.indexType(), IndexType::UInt32);
+  EXPECT_EQ(ew.state(0x10000, 0), wide.state(0x10000, 0));
+  EXPECT_EQ(ew.state(0x10003 + 3, 0), State::UnknownOpaque);  // special index -4 in 32 bits
+  auto pw = EncodedArray::parse(ew.serialize());
+  ASSERT_TRUE(pw.ok()) << pw.error().message;
+  EXPECT_TRUE(*pw == ew);
+  EXPECT_EQ(ew.decode().data, wide.data);
+}
+
+TYPED_TEST(EncodeTest, SizesEqualTheFormulas) {
+  std::vector<Micromap> maps;
+  uint32_t seed = 10;
+  for (Format f : {Format::TwoState, Format::FourState})
+    for (Pattern p : kPatterns)
+      for (uint32_t level : {0u, 1u, 2u, 4u, 6u, 8u, 9u}) maps.push_back(makeMap(p, level, f, ++seed));
+  const OmmArray oracle = arrayOf(maps);
+  const EncodedArray e = this->build(oracle);
+  ASSERT_EQ(e.mapCount(), maps.size());
+  uint64_t total = 0;
+  bool anyTree = false;
+  for (size_t k = 0; k < maps.size(); ++k) {
+    const EncodedMapDesc& d = e.maps()[k];
+    const uint64_t end = k + 1 < maps.size() ? e.maps()[k + 1].offset : e.dataBytes();
+    const uint64_t size = end - d.offset;
+    if (TestFixture::kE == Encoding::Hybrid) {
+      // The smallest of the three, ties to flat then rank.
+      const uint64_t fb = formulaBytes(MapKind::Flat, maps[k]), db = formulaBytes(MapKind::Dfs, maps[k]),
+                     rb = formulaBytes(MapKind::Rank, maps[k]);
+      EXPECT_EQ(size, std::min({fb, db, rb}));
+      EXPECT_EQ(size, formulaBytes(d.kind, maps[k]));
+      EXPECT_LE(size, fb);
+      anyTree |= d.kind != MapKind::Flat;
+    } else {
+      EXPECT_EQ(d.kind, baseKind(TestFixture::kE));
+      EXPECT_EQ(size, formulaBytes(d.kind, maps[k])) << k;
+      anyTree |= TestFixture::kE != Encoding::Flat;
+    }
+    total += size;
+  }
+  EXPECT_EQ(e.dataBytes(), total);
+  EXPECT_EQ(e.paddingBytes(), anyTree ? encode::kTailPadding : 0u);
+  EXPECT_EQ(e.byteSize(), 20u + 2u * oracle.indices.size() + 8u * maps.size() + total + e.paddingBytes());
+  EXPECT_EQ(e.serialize().size(), e.byteSize());
+}
+
+// Hybrid never exceeds flat + the tail padding, on every map shape, level and format.
+TYPED_TEST(EncodeTest, NeverLargerThanFlatWhenHybrid) {
+  for (Format f : {Format::TwoState, Format::FourState})
+    for (Pattern p : kPatterns)
+      for (uint32_t level = 0; level <= 9; ++level) {
+        const OmmArray oracle = arrayOf({makeMap(p, level, f, 3)});
+        const EncodedArray e = this->build(oracle);
+        const EncodedArray flat = EncodedArray::build(oracle, Encoding::Flat).value();
+        if (TestFixture::kE == Encoding::Hybrid) {
+          EXPECT_LE(e.dataBytes(), flat.dataBytes());
+          EXPECT_LE(e.byteSize(), flat.byteSize() + encode::kTailPadding);
+        }
+        // Checkerboards are the degenerate case: no tree beats flat there.
+        if (p == Pattern::Checker && level >= 2 && TestFixture::kE != Encoding::Flat &&
+            TestFixture::kE != Encoding::Hybrid) {
+          EXPECT_GT(e.dataBytes(), flat.dataBytes());
+        }
+      }
+}
+
+TYPED_TEST(EncodeTest, CorruptBytesRejected) {
+  const OmmArray oracle = arrayOf({makeMap(Pattern::Leaf, 4, Format::TwoState, 1),
+                                   makeMap(Pattern::Disc, 3, Format::FourState, 1),
+                                   makeMap(Pattern::Checker, 2, Format::TwoState, 1)});
+  const EncodedArray e = this->build(oracle);
+  const std::vector<uint8_t> good = e.serialize();
+  ASSERT_TRUE(EncodedArray::parse(good).ok());
+  // Every truncation is rejected.
+  for (size_t n = 0; n < good.size(); ++n) {
+    auto r = EncodedArray::parse(std::span(good.data(), n), "cut.somm");
+    ASSERT_FALSE(r.ok()) << n;
+    EXPECT_EQ(r.error().message.rfind("cut.somm: ", 0), 0u);
+    EXPECT_EQ(r.error().message.find('\n'), std::string::npos);
+  }
+  // Every single-bit flip either is rejected or yields an array whose lookups stay in bounds (ASan checks the
+  // latter).
+  uint64_t rejected = 0, accepted = 0;
+  for (size_t byte = 0; byte < good.size(); ++byte)
+    for (int bit = 0; bit < 8; ++bit) {
+      std::vector<uint8_t> bad = good;
+      bad[byte] ^= uint8_t(1u << bit);
+      auto r = EncodedArray::parse(bad);
+      if (!r.ok()) {
+        ++rejected;
+        continue;
+      }
+      ++accepted;
+      for (uint32_t t = 0; t < r->triangleCount(); ++t) {
+        const int32_t i = r->indices()[t];
+        const uint32_t n = i < 0 ? 1 : microTriangleCount(r->maps()[size_t(i)].level);
+        for (uint32_t k = 0; k < n; ++k) (void)r->state(t, k);
+      }
+    }
+  EXPECT_GT(rejected, 0u);
+  EXPECT_GT(accepted, 0u);  // flipped state bits are valid data
+  // Specific corruptions.
+  auto expectReject = [&](std::vector<uint8_t> b, const char* what) {
+    auto r = EncodedArray::parse(b);
+    EXPECT_FALSE(r.ok()) << what;
+  };
+  std::vector<uint8_t> b = good;
+  b[0] ^= 0xff;
+  expectReject(b, "magic");
+  b = good;
+  b[5] = 9;
+  expectReject(b, "encoding id");
+  b = good;
+  b[8] = 0xff, b[9] = 0xff, b[10] = 0xff, b[11] = 0x7f;  // triangle count far beyond the bytes
+  expectReject(b, "triangle count");
+  b = good;
+  b[20] = 7;  // index 7 with 3 maps
+  expectReject(b, "index");
+  const size_t desc = 20 + 2 * oracle.indices.size();
+  b = good;
+  b[desc + 4] = 13;  // level 13
+  expectReject(b, "level");
+  b = good;
+  b[desc + 5] = 3;  // format 3
+  expectReject(b, "format");
+  b = good;
+  b[desc + 6] = 3;  // kind 3
+  expectReject(b, "kind");
+  b = good;
+  b[desc + 0] = 0xf0;  // offset past the data
+  expectReject(b, "offset");
+  b = good;
+  b.push_back(0);
+  expectReject(b, "trailing byte");
+}
+
+TEST(EncodeMaps, DfsAndRankLayoutsByHand) {
+  // Level 1, 2-state, states 1,0,0,0: root internal; dfs T = 1 0 0 0 0, values 1 0 0 0; header 1 bit = 1.
+  Micromap m(1, Format::TwoState);
+  m.set(0, State::Opaque);
+  const std::vector<uint8_t> dfs = encode::encodeMap(m, MapKind::Dfs);
+  ASSERT_EQ(dfs.size(), 3u);  // 1 header byte + ceil((5 + 4) / 8)
+  EXPECT_EQ(dfs[0], 0x01);
+  EXPECT_EQ(dfs[1], 0b00100001);  // T = 1,0,0,0,0 then value bits 1,0,0 at bits 5..7
+  EXPECT_EQ(dfs[2], 0x00);        // last value bit 0
+  // rank: header internal = 1, flags = 1 (1 bit each), flags "1", no directory, last-level states 1,0,0,0.
+  const std::vector<uint8_t> rank = encode::encodeMap(m, MapKind::Rank);
+  ASSERT_EQ(rank.size(), 2u);
+  EXPECT_EQ(rank[0], 0b11);
+  EXPECT_EQ(rank[1], 0b00011);  // flag 1, then values 1,0,0,0
+  // A uniform level-3 map collapses to the root leaf.
+  const Micromap u(3, Format::FourState, State::UnknownOpaque);
+  EXPECT_EQ(encode::encodeMap(u, MapKind::Dfs),
+            (std::vector<uint8_t>{0x00, 0b110}));  // 5-bit count 0; T 0; value 3
+  EXPECT_EQ(encode::encodeMap(u, MapKind::Rank),
+            (std::vector<uint8_t>{0x20, 0x00, 0b110}));  // nf=1; flag 0; value 3
+}
+
+TEST(EncodeMaps, RankDirectoryOnLargeMaps) {
+  // Level-6 checkerboard: every node above the last level is internal, 1 + 4 + ... + 256 + 4·256 = 1365 flags
+  // → 5 directory counters of 16 bits.
+  const Micromap m = makeMap(Pattern::Checker, 6, Format::TwoState, 5);
+  const encode::TreeShape s = bruteShape(m);
+  EXPECT_EQ(s.internal, 1365u);
+  EXPECT_EQ(encode::rankFlagBits(6, s), 1365u);
+  EXPECT_EQ(encode::rankDirectoryCounters(1365), 5u);
+  EXPECT_EQ(encode::encodeMap(m, MapKind::Rank).size(), encode::rankMapBytes(6, Format::TwoState, s));
+  EXPECT_EQ(encode::rankMapBytes(6, Format::TwoState, s), 3 + (1365 + 5 * 16 + 4096 + 7) / 8);
+  EXPECT_EQ(encode::treeShape(m).internal, s.internal);
+  EXPECT_EQ(encode::treeShape(m).internalAboveLast, s.internalAboveLast);
+}
+
+TEST(EncodeNames, ParseLists) {
+  EXPECT_EQ(parseEncodingList("rank").value(), std::vector<Encoding>{Encoding::Rank});
+  EXPECT_EQ(parseEncodingList("dfs,dfs-fast,dfs").value(),
+            (std::vector<Encoding>{Encoding::Dfs, Encoding::DfsFast}));
+  EXPECT_EQ(parseEncodingList("all").value().size(), 5u);
+  EXPECT_FALSE(parseEncodingList("rank,,flat").ok());
+  EXPECT_FALSE(parseEncodingList("zip").ok());
+  for (Encoding e : kAllEncodings) EXPECT_EQ(parseEncodingName(encodingName(e)), e);
+}
+
+}  // namespace
+}  // namespace somm

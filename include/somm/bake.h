@@ -124,7 +124,9 @@ uint32_t adaptiveLevel(std::array<float, 2> uv0, std::array<float, 2> uv1, std::
 Result<BakedGeometry> bakeGeometry(const Geometry& geometry, const Material& material,
                                    const BakeOptions& options);
 
-// Same, with a prepared mask for the material (nullptr when the material has no alpha texture).
+// Same, with a prepared mask for the material (nullptr when the material has no alpha texture). The mask's
+// sampler and cutoff are used as they are: build it with the effective filter / cutoff (options.filter /
+// cutoff are not applied).
 Result<BakedGeometry> bakeGeometry(const Geometry& geometry, const Material& material, const AlphaMask* mask,
                                    const BakeOptions& options);
 

@@ -290,6 +290,16 @@ struct TriangleClassifier {
           hi = std::max(hi, std::max(fv[k], e));
         }
         unsigned cls = decide(lo - grow, hi + grow, cutoff, tol);
+        if (cls == kMixed) {
+          // Vertices of T inside this cell are points of the region where the blend is f itself: if they
+          // (with what other cells showed) see both classes, the region is mixed — no need for the exact
+          // bound.
+          unsigned seen = acc;
+          for (int k = 0; k < 3; ++k)
+            if (px[k] >= 0 && px[k] <= 1 && py[k] >= 0 && py[k] <= 1)
+              seen |= fv[k] >= double(cutoff) ? kPass : kFail;
+          if (seen == kMixed) return kMixed;
+        }
         if (cls == kMixed) cls = clippedCell(A, B, C, D, px, py, grow, cutoff, tol);
         acc |= cls;
         if (acc == kMixed) return kMixed;
@@ -307,10 +317,19 @@ struct TriangleClassifier {
     }
   }
 
+  // The alpha test at cell-space point (x, y), evaluated like sampleAlpha but directly in cell space (used
+  // only for the majority of unknown micro-triangles, which needs no exactness).
   bool passesAt(double x, double y) const noexcept {
     const AlphaTexture& t = *mask.texture();
-    const float s = float((x + shift) / double(t.width)), u = float((y + shift) / double(t.height));
-    return alphaTestPasses(sampleAlpha(t, mask.sampler(), s, u), mask.cutoff());
+    const Sampler& smp = mask.sampler();
+    const int64_t i = cellFloor(x), j = cellFloor(y);
+    const uint32_t xa = wrapFast(i, t.width, smp.wrapS), ya = wrapFast(j, t.height, smp.wrapT);
+    if (shift == 0) return alphaTestPasses(t.at(xa, ya), mask.cutoff());
+    const uint32_t xb = wrapFast(i + 1, t.width, smp.wrapS), yb = wrapFast(j + 1, t.height, smp.wrapT);
+    const double fx = x - double(i), fy = y - double(j);
+    const double top = double(t.at(xa, ya)) * (1 - fx) + double(t.at(xb, ya)) * fx;
+    const double bot = double(t.at(xa, yb)) * (1 - fx) + double(t.at(xb, yb)) * fx;
+    return alphaTestPasses(float(top * (1 - fy) + bot * fy), mask.cutoff());
   }
 
   // The state an unknown micro-triangle gets: by majority of the alpha test at the centroids of its 4

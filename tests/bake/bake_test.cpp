@@ -397,6 +397,27 @@ TEST(BakeGeometry, RejectsBadInput) {
   EXPECT_NE(r.error().message.find("material 'disc'"), std::string::npos);
 }
 
+TEST(BakeGeometry, SharedMaskGivesTheSameBake) {
+  const Geometry g = randomGeometry(300, 6);
+  const Material m = discMaterial();
+  BakeOptions o;
+  o.level = 4;
+  o.filter = Filter::Nearest;
+  o.cutoff = 0.3f;
+  auto own = bakeGeometry(g, m, o);
+  ASSERT_TRUE(own.ok());
+  Sampler smp = m.sampler;
+  smp.filter = Filter::Nearest;
+  const AlphaMask mask(*m.alpha, smp, 0.3f);
+  auto shared = bakeGeometry(g, m, &mask, o);
+  ASSERT_TRUE(shared.ok());
+  EXPECT_EQ(shared->array.data, own->array.data);
+  EXPECT_EQ(shared->array.indices, own->array.indices);
+  auto missing = bakeGeometry(g, m, nullptr, o);
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(missing.error().message.find("material 'disc'"), std::string::npos);
+}
+
 TEST(BakeGeometry, ProgressReachesOne) {
   const Geometry g = randomGeometry(9000, 4);
   const Material m = discMaterial();

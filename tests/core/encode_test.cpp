@@ -214,10 +214,12 @@ TYPED_TEST(EncodeTest, EveryIndexLevels0To8) {
       for (uint32_t level = 0; level <= 8; ++level) {
         const OmmArray oracle = arrayOf({makeMap(p, level, f, 1)});
         const EncodedArray e = this->build(oracle);
-        // The paper's lookup walks ~4^level/2 bits per query on a full tree (checkerboard, random): at level 8 those
-        // two maps are checked at every index below 4096 and every 7th above, to keep the suite fast under ASan.
-        const bool dfsOnFullTree = (TestFixture::kE == Encoding::Dfs || TestFixture::kE == Encoding::DfsFast) &&
-                                   (p == Pattern::Checker || p == Pattern::Random);
+        // The paper's lookup walks ~4^level/2 bits per query on a full tree (checkerboard, random): at level
+        // 8 those two maps are checked at every index below 4096 and every 7th above, to keep the suite fast
+        // under ASan.
+        const bool dfsOnFullTree =
+            (TestFixture::kE == Encoding::Dfs || TestFixture::kE == Encoding::DfsFast) &&
+            (p == Pattern::Checker || p == Pattern::Random);
         EXPECT_EQ(this->mismatchesEveryIndex(e, oracle, dfsOnFullTree ? 7 : 1), 0u)
             << patternName(p) << " level " << level << " format " << int(f);
       }
@@ -450,9 +452,19 @@ TEST(EncodeMaps, RankDirectoryOnLargeMaps) {
   const encode::TreeShape s = bruteShape(m);
   EXPECT_EQ(s.internal, 1365u);
   EXPECT_EQ(encode::rankFlagBits(6, s), 1365u);
-  EXPECT_EQ(encode::rankDirectoryCounters(1365), 5u);
+  EXPECT_EQ(encode::rankBlocks(1365), 6u);
+  EXPECT_EQ(encode::rankFlagRegionBits(1365, 1365), 1365u + 6 * 40);
+  EXPECT_EQ(encode::rankFlagPosition(0, 1365, 1365), 40u);
+  EXPECT_EQ(encode::rankFlagPosition(257, 1365, 1365), 296u + 40 + 1);
   EXPECT_EQ(encode::encodeMap(m, MapKind::Rank).size(), encode::rankMapBytes(6, Format::TwoState, s));
-  EXPECT_EQ(encode::rankMapBytes(6, Format::TwoState, s), 3 + (1365 + 5 * 16 + 4096 + 7) / 8);
+  EXPECT_EQ(encode::rankMapBytes(6, Format::TwoState, s), 3 + (1365 + 6 * 40 + 4096 + 7) / 8);
+  // The directory: block 1 starts at byte 3 + 37; its counter holds the 256 ones of block 0, its sub-counters
+  // 64, 128, 192 (every flag is 1).
+  const std::vector<uint8_t> blob = encode::encodeMap(m, MapKind::Rank);
+  EXPECT_EQ(blob[3 + 37] | blob[3 + 38] << 8, 256);
+  EXPECT_EQ(blob[3 + 39], 64);
+  EXPECT_EQ(blob[3 + 40], 128);
+  EXPECT_EQ(blob[3 + 41], 192);
   EXPECT_EQ(encode::treeShape(m).internal, s.internal);
   EXPECT_EQ(encode::treeShape(m).internalAboveLast, s.internalAboveLast);
 }

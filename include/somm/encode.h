@@ -67,8 +67,10 @@ constexpr uint32_t countFieldBits(uint32_t level) noexcept {
 constexpr uint32_t dfsHeaderBytes(uint32_t level) noexcept {
   return (countFieldBits(level) + 7u) / 8u;
 }
+// rank header: I and F in W(L) bits each, then 4 bits K = the number of leading levels that are fully
+// internal.
 constexpr uint32_t rankHeaderBytes(uint32_t level) noexcept {
-  return (2u * countFieldBits(level) + 7u) / 8u;
+  return level == 0 ? 0u : (2u * countFieldBits(level) + 4u + 7u) / 8u;
 }
 // Rank directory (only when the flags span more than one 256-bit block): the flags are stored in blocks of
 // 256, each preceded by its header — a counter of c bits (the 1s before the block; c = 16 while the map has
@@ -258,11 +260,12 @@ inline State rankState(const uint8_t* blob, uint32_t level, Format f, uint32_t i
   const uint32_t w = countFieldBits(level);
   const uint64_t internal = getBits(blob, 0, w);
   const uint64_t nf = getBits(blob, w, w);
+  const uint32_t full = getBits(blob, 2 * w, 4);  // levels 0..full-1 are all internal: jump to depth `full`
   const uint8_t* fl = blob + rankHeaderBytes(level);
   const uint64_t valueBase = rankFlagRegionBits(nf, internal);
-  uint64_t x = 0;
+  uint64_t x = ((uint64_t(1) << (2 * full)) - 1) / 3 + (uint64_t(index) >> (2 * (level - full)));
   if (nf <= kRankBlockBits) {  // one block, no directory: popcount the (at most three) earlier words
-    for (uint32_t d = 0; d < level; ++d) {
+    for (uint32_t d = full; d < level; ++d) {
       const uint64_t wordIndex = x >> 6;
       const uint64_t word = load64(fl + (wordIndex << 3));
       const uint32_t sh = uint32_t(x & 63u);
@@ -276,7 +279,7 @@ inline State rankState(const uint8_t* blob, uint32_t level, Format f, uint32_t i
   const bool wide = internal >= 65536u;
   const uint64_t blockBytes = (kRankBlockBits + rankBlockHeaderBits(internal)) / 8;  // 37 or 39
   const uint32_t headerBytes = rankBlockHeaderBits(internal) / 8;                    // 5 or 7
-  for (uint32_t d = 0; d < level; ++d) {
+  for (uint32_t d = full; d < level; ++d) {
     const uint8_t* block = fl + (x / kRankBlockBits) * blockBytes;
     const uint32_t wi = uint32_t(x >> 6) & 3u;
     uint64_t r = wide ? (uint64_t(block[0]) | uint64_t(block[1]) << 8 | uint64_t(block[2]) << 16 |

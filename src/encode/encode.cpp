@@ -173,9 +173,14 @@ std::vector<uint8_t> encodeRank(const Micromap& map) {
   }
   for (uint32_t i : nodes) values.put(vals[level][i], bps);
   const uint64_t nf = flags.bits();
+  uint32_t full = 0;  // leading levels whose nodes are all internal
+  while (full < level &&
+         std::all_of(vals[full].begin(), vals[full].end(), [](uint8_t v) { return v == kMixed; }))
+    ++full;
   BitWriter out;
   out.put(internal, countFieldBits(level));
   out.put(nf, countFieldBits(level));
+  if (level > 0) out.put(full, 4);
   out.padToByte();
   if (rankBlocks(nf) <= 1) {
     out.append(flags);
@@ -361,7 +366,10 @@ Result<uint64_t> validateMap(const uint8_t* blob, uint64_t available, MapKind ki
         internal |= uint64_t((blob[i >> 3] >> (i & 7)) & 1u) << i;
         nf |= uint64_t((blob[(w + i) >> 3] >> ((w + i) & 7)) & 1u) << i;
       }
-      if (internal > maxInternal || nf > maxInternal || internal > nf)
+      uint32_t full = 0;
+      for (uint32_t i = 0; i < 4; ++i)
+        full |= uint32_t((blob[(2 * w + i) >> 3] >> ((2 * w + i) & 7)) & 1u) << i;
+      if (internal > maxInternal || nf > maxInternal || internal > nf || full > level)
         return corrupt("rank micromap header counts exceed what its level allows");
       const uint64_t size = hdr + (rankFlagRegionBits(nf, internal) + bps * (3 * internal + 1) + 7) / 8;
       if (size > available) return corrupt("rank micromap extends past the data buffer");
@@ -373,6 +381,9 @@ Result<uint64_t> validateMap(const uint8_t* blob, uint64_t available, MapKind ki
         if (levelSize > nf - x) return corrupt("rank micromap flags end early");
         uint64_t levelOnes = 0;
         for (uint64_t k = 0; k < levelSize; ++k) levelOnes += flag(x + k);
+        if (d < full && levelOnes != levelSize) return corrupt("rank micromap full-level count is wrong");
+        if (d == full && levelOnes == levelSize)
+          return corrupt("rank micromap full-level count is too small");
         x += levelSize;
         ones += levelOnes;
         levelSize = 4 * levelOnes;

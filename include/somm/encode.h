@@ -67,16 +67,34 @@ constexpr uint32_t countFieldBits(uint32_t level) noexcept {
 constexpr uint32_t dfsHeaderBytes(uint32_t level) noexcept {
   return (countFieldBits(level) + 7u) / 8u;
 }
+// rank header: I and F in W(L) bits each, then 4 bits K = the number of leading levels that are fully
+// internal.
 constexpr uint32_t rankHeaderBytes(uint32_t level) noexcept {
-  return (2u * countFieldBits(level) + 7u) / 8u;
+  return level == 0 ? 0u : (2u * countFieldBits(level) + 4u + 7u) / 8u;
 }
-// Width of a rank directory counter: 16 bits while the map has fewer than 65536 internal nodes, else 32.
+// Rank directory (only when the flags span more than one 256-bit block): the flags are stored in blocks of
+// 256, each preceded by its header — a counter of c bits (the 1s before the block; c = 16 while the map has
+// fewer than 65536 internal nodes, else 32) and three bytes (the 1s in the block before its words 1, 2, 3) —
+// so that a rank reads one header and one word, all in the same few bytes.
 constexpr uint32_t rankCounterBits(uint64_t internal) noexcept {
   return internal < 65536u ? 16u : 32u;
 }
-constexpr uint64_t rankDirectoryCounters(uint64_t flagBits) noexcept {
-  const uint64_t blocks = (flagBits + kRankBlockBits - 1) / kRankBlockBits;
-  return blocks == 0 ? 0 : blocks - 1;
+constexpr uint64_t rankBlocks(uint64_t flagBits) noexcept {
+  return (flagBits + kRankBlockBits - 1) / kRankBlockBits;
+}
+constexpr uint32_t rankBlockHeaderBits(uint64_t internal) noexcept {
+  return rankCounterBits(internal) + 24u;
+}
+// Bits of the flag region (flags plus block headers).
+constexpr uint64_t rankFlagRegionBits(uint64_t flagBits, uint64_t internal) noexcept {
+  return rankBlocks(flagBits) <= 1 ? flagBits
+                                   : flagBits + rankBlocks(flagBits) * rankBlockHeaderBits(internal);
+}
+// Bit position of flag x in the flag region.
+constexpr uint64_t rankFlagPosition(uint64_t x, uint64_t flagBits, uint64_t internal) noexcept {
+  if (rankBlocks(flagBits) <= 1) return x;
+  const uint64_t h = rankBlockHeaderBits(internal);
+  return (x / kRankBlockBits) * (kRankBlockBits + h) + h + x % kRankBlockBits;
 }
 
 // The shape of a map's collapsed tree: internal nodes in total and at depth level-1 (whose children are
@@ -101,8 +119,7 @@ constexpr uint64_t rankFlagBits(uint32_t level, const TreeShape& s) noexcept {
 }
 constexpr uint64_t rankMapBytes(uint32_t level, Format f, const TreeShape& s) noexcept {
   const uint64_t nf = rankFlagBits(level, s);
-  const uint64_t bits = nf + rankCounterBits(s.internal) * rankDirectoryCounters(nf) +
-                        uint64_t(bitsPerState(f)) * (3 * s.internal + 1);
+  const uint64_t bits = rankFlagRegionBits(nf, s.internal) + uint64_t(bitsPerState(f)) * (3 * s.internal + 1);
   return rankHeaderBytes(level) + (bits + 7) / 8;
 }
 
@@ -243,19 +260,35 @@ inline State rankState(const uint8_t* blob, uint32_t level, Format f, uint32_t i
   const uint32_t w = countFieldBits(level);
   const uint64_t internal = getBits(blob, 0, w);
   const uint64_t nf = getBits(blob, w, w);
+  const uint32_t full = getBits(blob, 2 * w, 4);  // levels 0..full-1 are all internal: jump to depth `full`
   const uint8_t* fl = blob + rankHeaderBytes(level);
-  const uint32_t cw = rankCounterBits(internal);
-  const uint64_t valueBase = nf + cw * rankDirectoryCounters(nf);
-  uint64_t x = 0;
-  for (uint32_t d = 0; d < level; ++d) {
-    const uint64_t wordIndex = x >> 6;
-    const uint64_t word = load64(fl + (wordIndex << 3));
+  const uint64_t valueBase = rankFlagRegionBits(nf, internal);
+  uint64_t x = ((uint64_t(1) << (2 * full)) - 1) / 3 + (uint64_t(index) >> (2 * (level - full)));
+  if (nf <= kRankBlockBits) {  // one block, no directory: popcount the (at most three) earlier words
+    for (uint32_t d = full; d < level; ++d) {
+      const uint64_t wordIndex = x >> 6;
+      const uint64_t word = load64(fl + (wordIndex << 3));
+      const uint32_t sh = uint32_t(x & 63u);
+      uint64_t r = popcount64(word & ((uint64_t(1) << sh) - 1u));
+      for (uint64_t k = 0; k < wordIndex; ++k) r += popcount64(load64(fl + (k << 3)));
+      if (!((word >> sh) & 1u)) return getValue(fl, valueBase, f, x - r);
+      x = 1 + 4 * r + digitAt(index, level, d);
+    }
+    return getValue(fl, valueBase, f, x - internal);
+  }
+  const bool wide = internal >= 65536u;
+  const uint64_t blockBytes = (kRankBlockBits + rankBlockHeaderBits(internal)) / 8;  // 37 or 39
+  const uint32_t headerBytes = rankBlockHeaderBits(internal) / 8;                    // 5 or 7
+  for (uint32_t d = full; d < level; ++d) {
+    const uint8_t* block = fl + (x / kRankBlockBits) * blockBytes;
+    const uint32_t wi = uint32_t(x >> 6) & 3u;
+    uint64_t r = wide ? (uint64_t(block[0]) | uint64_t(block[1]) << 8 | uint64_t(block[2]) << 16 |
+                         uint64_t(block[3]) << 24)
+                      : (uint64_t(block[0]) | uint64_t(block[1]) << 8);
+    if (wi != 0) r += block[headerBytes - 4 + wi];
+    const uint64_t word = load64(block + headerBytes + 8 * wi);
     const uint32_t sh = uint32_t(x & 63u);
-    uint64_t r = popcount64(word & ((uint64_t(1) << sh) - 1u));
-    const uint64_t block = x / kRankBlockBits;
-    if (block != 0) r += getBits(fl, nf + cw * (block - 1), cw);
-    for (uint64_t k = block * (kRankBlockBits / 64); k < wordIndex; ++k)
-      r += popcount64(load64(fl + (k << 3)));
+    r += popcount64(word & ((uint64_t(1) << sh) - 1u));
     if (!((word >> sh) & 1u)) return getValue(fl, valueBase, f, x - r);
     x = 1 + 4 * r + digitAt(index, level, d);
   }

@@ -173,16 +173,31 @@ std::vector<uint8_t> encodeRank(const Micromap& map) {
   }
   for (uint32_t i : nodes) values.put(vals[level][i], bps);
   const uint64_t nf = flags.bits();
+  uint32_t full = 0;  // leading levels whose nodes are all internal
+  while (full < level &&
+         std::all_of(vals[full].begin(), vals[full].end(), [](uint8_t v) { return v == kMixed; }))
+    ++full;
   BitWriter out;
   out.put(internal, countFieldBits(level));
   out.put(nf, countFieldBits(level));
+  if (level > 0) out.put(full, 4);
   out.padToByte();
-  out.append(flags);
-  const uint32_t cw = rankCounterBits(internal);
-  uint64_t ones = 0;
-  for (uint64_t b = 1; b <= rankDirectoryCounters(nf); ++b) {
-    for (uint64_t k = (b - 1) * kRankBlockBits; k < b * kRankBlockBits; ++k) ones += flags.bit(k);
-    out.put(ones, cw);
+  if (rankBlocks(nf) <= 1) {
+    out.append(flags);
+  } else {
+    const uint32_t cw = rankCounterBits(internal);
+    uint64_t before = 0;
+    for (uint64_t b = 0; b < rankBlocks(nf); ++b) {
+      const uint64_t start = b * kRankBlockBits, end = std::min<uint64_t>(nf, start + kRankBlockBits);
+      uint64_t inBlock[4] = {0, 0, 0, 0};  // ones in words 0..3 of the block
+      for (uint64_t k = start; k < end; ++k) inBlock[(k - start) / 64] += flags.bit(k);
+      out.put(before, cw);
+      out.put(inBlock[0], 8);
+      out.put(inBlock[0] + inBlock[1], 8);
+      out.put(inBlock[0] + inBlock[1] + inBlock[2], 8);
+      for (uint64_t k = start; k < end; ++k) out.putBit(flags.bit(k));
+      before += inBlock[0] + inBlock[1] + inBlock[2] + inBlock[3];
+    }
   }
   out.append(values);
   return out.bytes();
@@ -270,7 +285,7 @@ Micromap decodeMap(const uint8_t* blob, MapKind kind, uint32_t level, Format f) 
       const uint64_t internal = getBits(blob, 0, w);
       const uint64_t nf = getBits(blob, w, w);
       const uint8_t* fl = blob + rankHeaderBytes(level);
-      const uint64_t valueBase = nf + rankCounterBits(internal) * rankDirectoryCounters(nf);
+      const uint64_t valueBase = rankFlagRegionBits(nf, internal);
       // Level by level: (node position x, first micro-triangle).
       std::vector<uint64_t> starts{0}, next;
       uint64_t x = 0, leaf = 0;
@@ -278,7 +293,7 @@ Micromap decodeMap(const uint8_t* blob, MapKind kind, uint32_t level, Format f) 
         const uint64_t span = uint64_t(1) << (2 * (level - d));
         next.clear();
         for (uint64_t start : starts) {
-          if (getBit(fl, x++)) {
+          if (getBit(fl, rankFlagPosition(x++, nf, internal))) {
             for (uint32_t c = 0; c < 4; ++c) next.push_back(start + c * span / 4);
           } else {
             fillRange(out, start, span, getValue(fl, valueBase, f, leaf++));
@@ -351,35 +366,49 @@ Result<uint64_t> validateMap(const uint8_t* blob, uint64_t available, MapKind ki
         internal |= uint64_t((blob[i >> 3] >> (i & 7)) & 1u) << i;
         nf |= uint64_t((blob[(w + i) >> 3] >> ((w + i) & 7)) & 1u) << i;
       }
-      if (internal > maxInternal || nf > maxInternal || internal > nf)
+      uint32_t full = 0;
+      for (uint32_t i = 0; i < 4; ++i)
+        full |= uint32_t((blob[(2 * w + i) >> 3] >> ((2 * w + i) & 7)) & 1u) << i;
+      if (internal > maxInternal || nf > maxInternal || internal > nf || full > level)
         return corrupt("rank micromap header counts exceed what its level allows");
-      const uint32_t cw = rankCounterBits(internal);
-      const uint64_t counters = rankDirectoryCounters(nf);
-      const uint64_t size = hdr + (nf + cw * counters + bps * (3 * internal + 1) + 7) / 8;
+      const uint64_t size = hdr + (rankFlagRegionBits(nf, internal) + bps * (3 * internal + 1) + 7) / 8;
       if (size > available) return corrupt("rank micromap extends past the data buffer");
       const uint8_t* fl = blob + hdr;
+      auto flag = [&](uint64_t x) { return getBit(fl, rankFlagPosition(x, nf, internal)); };
       // Level sizes: 1, then 4 × the internal nodes of the level above; they must add up to nf.
-      uint64_t x = 0, levelSize = 1, ones = 0, lastOnes = 0;
+      uint64_t x = 0, levelSize = 1, ones = 0;
       for (uint32_t d = 0; d < level; ++d) {
         if (levelSize > nf - x) return corrupt("rank micromap flags end early");
         uint64_t levelOnes = 0;
-        for (uint64_t k = 0; k < levelSize; ++k) levelOnes += getBit(fl, x + k);
+        for (uint64_t k = 0; k < levelSize; ++k) levelOnes += flag(x + k);
+        if (d < full && levelOnes != levelSize) return corrupt("rank micromap full-level count is wrong");
+        if (d == full && levelOnes == levelSize)
+          return corrupt("rank micromap full-level count is too small");
         x += levelSize;
         ones += levelOnes;
-        lastOnes = levelOnes;
         levelSize = 4 * levelOnes;
       }
       if (x != nf || ones != internal) return corrupt("rank micromap flags disagree with its header");
-      (void)lastOnes;
-      uint64_t running = 0;
-      for (uint64_t b = 1; b <= counters; ++b) {
-        for (uint64_t k = (b - 1) * kRankBlockBits; k < b * kRankBlockBits; ++k) running += getBit(fl, k);
-        uint64_t stored = 0;
-        for (uint32_t i = 0; i < cw; ++i) {
-          const uint64_t bit = nf + cw * (b - 1) + i;
-          stored |= uint64_t((fl[bit >> 3] >> (bit & 7)) & 1u) << i;
+      if (rankBlocks(nf) > 1) {
+        const uint32_t cw = rankCounterBits(internal);
+        const uint64_t blockBits = kRankBlockBits + rankBlockHeaderBits(internal);
+        auto field = [&](uint64_t bit, uint32_t n) {
+          uint64_t v = 0;
+          for (uint32_t i = 0; i < n; ++i) v |= uint64_t(getBit(fl, bit + i)) << i;
+          return v;
+        };
+        uint64_t before = 0;
+        for (uint64_t b = 0; b < rankBlocks(nf); ++b) {
+          const uint64_t start = b * kRankBlockBits, end = std::min<uint64_t>(nf, start + kRankBlockBits);
+          uint64_t inBlock[4] = {0, 0, 0, 0};
+          for (uint64_t k = start; k < end; ++k) inBlock[(k - start) / 64] += flag(k);
+          const uint64_t h = b * blockBits;
+          if (field(h, cw) != before || field(h + cw, 8) != inBlock[0] ||
+              field(h + cw + 8, 8) != inBlock[0] + inBlock[1] ||
+              field(h + cw + 16, 8) != inBlock[0] + inBlock[1] + inBlock[2])
+            return corrupt("rank micromap rank directory is inconsistent");
+          before += inBlock[0] + inBlock[1] + inBlock[2] + inBlock[3];
         }
-        if (stored != running) return corrupt("rank micromap rank directory is inconsistent");
       }
       return size;
     }

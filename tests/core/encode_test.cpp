@@ -214,10 +214,12 @@ TYPED_TEST(EncodeTest, EveryIndexLevels0To8) {
       for (uint32_t level = 0; level <= 8; ++level) {
         const OmmArray oracle = arrayOf({makeMap(p, level, f, 1)});
         const EncodedArray e = this->build(oracle);
-        // The paper's lookup walks ~4^level/2 bits per query on a full tree (checkerboard, random): at level 8 those
-        // two maps are checked at every index below 4096 and every 7th above, to keep the suite fast under ASan.
-        const bool dfsOnFullTree = (TestFixture::kE == Encoding::Dfs || TestFixture::kE == Encoding::DfsFast) &&
-                                   (p == Pattern::Checker || p == Pattern::Random);
+        // The paper's lookup walks ~4^level/2 bits per query on a full tree (checkerboard, random): at level
+        // 8 those two maps are checked at every index below 4096 and every 7th above, to keep the suite fast
+        // under ASan.
+        const bool dfsOnFullTree =
+            (TestFixture::kE == Encoding::Dfs || TestFixture::kE == Encoding::DfsFast) &&
+            (p == Pattern::Checker || p == Pattern::Random);
         EXPECT_EQ(this->mismatchesEveryIndex(e, oracle, dfsOnFullTree ? 7 : 1), 0u)
             << patternName(p) << " level " << level << " format " << int(f);
       }
@@ -433,7 +435,7 @@ TEST(EncodeMaps, DfsAndRankLayoutsByHand) {
   // rank: header internal = 1, flags = 1 (1 bit each), flags "1", no directory, last-level states 1,0,0,0.
   const std::vector<uint8_t> rank = encode::encodeMap(m, MapKind::Rank);
   ASSERT_EQ(rank.size(), 2u);
-  EXPECT_EQ(rank[0], 0b11);
+  EXPECT_EQ(rank[0], 0b0111);   // internal 1, flags 1, K = 1 full level
   EXPECT_EQ(rank[1], 0b00011);  // flag 1, then values 1,0,0,0
   // A uniform level-3 map collapses to the root leaf.
   const Micromap u(3, Format::FourState, State::UnknownOpaque);
@@ -450,9 +452,21 @@ TEST(EncodeMaps, RankDirectoryOnLargeMaps) {
   const encode::TreeShape s = bruteShape(m);
   EXPECT_EQ(s.internal, 1365u);
   EXPECT_EQ(encode::rankFlagBits(6, s), 1365u);
-  EXPECT_EQ(encode::rankDirectoryCounters(1365), 5u);
+  EXPECT_EQ(encode::rankBlocks(1365), 6u);
+  EXPECT_EQ(encode::rankFlagRegionBits(1365, 1365), 1365u + 6 * 40);
+  EXPECT_EQ(encode::rankFlagPosition(0, 1365, 1365), 40u);
+  EXPECT_EQ(encode::rankFlagPosition(257, 1365, 1365), 296u + 40 + 1);
   EXPECT_EQ(encode::encodeMap(m, MapKind::Rank).size(), encode::rankMapBytes(6, Format::TwoState, s));
-  EXPECT_EQ(encode::rankMapBytes(6, Format::TwoState, s), 3 + (1365 + 5 * 16 + 4096 + 7) / 8);
+  EXPECT_EQ(encode::rankMapBytes(6, Format::TwoState, s), 4 + (1365 + 6 * 40 + 4096 + 7) / 8);
+  // The directory: block 1 starts at byte 4 + 37; its counter holds the 256 ones of block 0, its sub-counters
+  // 64, 128, 192 (every flag is 1).
+  const std::vector<uint8_t> blob = encode::encodeMap(m, MapKind::Rank);
+  EXPECT_EQ(blob[4 + 37] | blob[4 + 38] << 8, 256);
+  EXPECT_EQ(blob[4 + 39], 64);
+  EXPECT_EQ(blob[4 + 40], 128);
+  EXPECT_EQ(blob[4 + 41], 192);
+  EXPECT_EQ((blob[2] >> 6) | (blob[3] & 3) << 2,
+            6);  // K (bits 22..25): all six levels above the last are full
   EXPECT_EQ(encode::treeShape(m).internal, s.internal);
   EXPECT_EQ(encode::treeShape(m).internalAboveLast, s.internalAboveLast);
 }

@@ -1,7 +1,8 @@
-// Fuzz target: the .somm reader (parseSomm). Each input is parsed twice: as is (exercising the magic, version, size
-// and checksum checks) and with every checksum and the declared size recomputed, so that mutations reach the
-// structural validation behind the checksums. A parsed file must be internally valid: every lookup a ray tracer or
-// `somm query` can make stays inside the buffers, and serialising it gives a file that parses to the same bytes.
+// Fuzz target: the .somm reader (parseSomm). Each input is parsed twice: as is (exercising the magic,
+// version, size and checksum checks) and with every checksum and the declared size recomputed, so that
+// mutations reach the structural validation behind the checksums. A parsed file must be internally valid:
+// every lookup a ray tracer or `somm query` can make stays inside the buffers, and serialising it gives a
+// file that parses to the same bytes.
 #include <xxhash.h>
 
 #include <cstddef>
@@ -30,8 +31,9 @@ void store64(uint8_t* p, uint64_t v) {
   for (int i = 0; i < 8; ++i) p[i] = uint8_t(v >> (8 * i));
 }
 
-// Recomputes the header's declared size and checksum and every chunk checksum it can reach (docs/somm-format.md:
-// 32-byte header, then chunks of a 24-byte header {type, geometry, size u64, checksum u64} + payload padded to 8).
+// Recomputes the header's declared size and checksum and every chunk checksum it can reach
+// (docs/somm-format.md: 32-byte header, then chunks of a 24-byte header {type, geometry, size u64, checksum
+// u64} + payload padded to 8).
 void fixChecksums(std::vector<uint8_t>& b) {
   if (b.size() < 32) return;
   store64(b.data() + 16, b.size());

@@ -255,6 +255,32 @@ TEST(BadScene, ImagesTruncatedOrClaimingHugeSizes) {
   }
 }
 
+// Found by fuzz_image: a PNG chunk declaring 2 GB made stb_image allocate 2 GB before reading it; a JPEG
+// Huffman table with more than 256 codes made the Debian stb_image write past its tables (heap buffer
+// overflow).
+TEST(BadScene, ImagesWithLyingChunksAndTables) {
+  std::string png = tinyPng();
+  const size_t idat = png.find("IDAT");
+  ASSERT_NE(idat, std::string::npos);
+  for (int i = 0; i < 4; ++i) png[idat - 4 + size_t(i)] = char(uint8_t(0x7ff00000u >> (24 - 8 * i)));
+  const long before = peakRssKiB();
+  auto r = detail::decodeImage(reinterpret_cast<const uint8_t*>(png.data()), png.size());
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(int(r.error().code), int(ErrorCode::CorruptFile));
+  EXPECT_NE(r.error().message.find("truncated PNG"), std::string::npos) << r.error().message;
+  EXPECT_LT(peakRssKiB() - before, 64 * 1024);
+
+  std::string jpg = testing::readFile(std::string(SOMM_DATA_DIR) + "/oak-tree/oakbark.jpg");
+  ASSERT_TRUE(detail::decodeImage(reinterpret_cast<const uint8_t*>(jpg.data()), jpg.size()).ok());
+  const size_t dht = jpg.find("\xff\xc4");
+  ASSERT_NE(dht, std::string::npos);
+  jpg[dht + 5] = char(0xff);  // the first two of the 16 code counts: 510 codes
+  jpg[dht + 6] = char(0xff);
+  r = detail::decodeImage(reinterpret_cast<const uint8_t*>(jpg.data()), jpg.size());
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("Huffman table"), std::string::npos) << r.error().message;
+}
+
 // Through the CLI: `somm bake` on every bad scene above fails with exit 1, writes nothing and keeps an
 // existing output.
 TEST(BadScene, BakeFailsCleanly) {

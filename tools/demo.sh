@@ -9,7 +9,8 @@ SCENE=data/oak-tree/oaktree.gltf
 LEVEL=8
 # A close view of the crown (rays cross several alpha-tested leaf cards), and the whole tree for the pictures.
 CROWN=0.8,3.3,2.2,0.1,3.2,0.15,0,1,0,60
-has() { "$SOMM" --help | grep -q "^  $1 "; }
+HELP=$("$SOMM" --help)
+has() { grep -q "^  $1 " <<<"$HELP"; }
 
 echo "== somm index --level 2: (u, v) -> bird-curve index"
 printf '0.5 0.25\n0.25 0.5\n' | "$SOMM" index --level 2 | tr '\n' ' '
@@ -17,15 +18,17 @@ echo
 
 OMM=()
 if has bake; then
-  echo "== somm bake $SCENE --level $LEVEL --encoding all"
-  "$SOMM" bake "$SCENE" -o out/oak.somm --level "$LEVEL" --encoding all
+  ENC=()
+  if grep -q -- --encoding <<<"$("$SOMM" bake --help)"; then ENC=(--encoding all); fi
+  echo "== somm bake $SCENE --level $LEVEL ${ENC[*]}"
+  "$SOMM" bake "$SCENE" -o out/oak.somm --level "$LEVEL" "${ENC[@]}"
   OMM=(--omm out/oak.somm)
   echo "== somm info out/oak.somm (memory per encoding)"
   "$SOMM" info out/oak.somm
 fi
 if has compare; then
-  echo "== somm compare $SCENE: memory table (bytes and ratio to flat)"
-  "$SOMM" compare "$SCENE" --levels 4,6,8,10 --formats 2,4
+  echo "== somm compare $SCENE --levels 4,6,8: memory table (bytes and ratio to flat)"
+  "$SOMM" compare "$SCENE" --levels 4,6,8 --formats 2,4
 fi
 
 echo "== somm bench $SCENE (crown close-up, 512x384, 3 interleaved repeats)"

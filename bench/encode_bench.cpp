@@ -10,8 +10,10 @@
 #include <random>
 #include <vector>
 
+#include "somm/bake.h"
 #include "somm/encode.h"
 #include "somm/omm_array.h"
+#include "somm/scene.h"
 
 namespace {
 
@@ -77,6 +79,50 @@ double nsPerLookup(const Scene& s, F&& lookup) {
   return best;
 }
 
+void addQueries(Scene& s, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> uf(0.f, 1.f);
+  const size_t queries = 1 << 16;
+  for (size_t q = 0; q < queries; ++q) {
+    float u = uf(rng), v = uf(rng);
+    if (u + v > 1.f) {
+      u = 1.f - u;
+      v = 1.f - v;
+    }
+    s.tri.push_back(uint32_t(rng() % s.flat.indices.size()));
+    s.u.push_back(u);
+    s.v.push_back(v);
+    s.want.push_back(s.flat.stateUV(s.tri.back(), u, v));
+  }
+  const EncodedArray flat = EncodedArray::build(s.flat, Encoding::Flat).value();
+  s.flatBytes = flat.byteSize();
+  s.flatNs = nsPerLookup(s, [&](uint32_t t, float u, float v) { return flat.stateUVAs<Encoding::Flat>(t, u, v); });
+}
+
+// The bundled oak tree (data/oak-tree), baked at the level: its alpha-tested geometry with the most triangles.
+// Empty when the scene cannot be loaded or baked.
+const Scene& oakScene(uint32_t level, Format format) {
+  static std::map<std::pair<uint32_t, Format>, Scene> cache;
+  auto it = cache.find({level, format});
+  if (it != cache.end()) return it->second;
+  Scene s;
+  auto scene = loadScene(std::string(SOMM_DATA_DIR) + "/oak-tree/oaktree.gltf");
+  if (scene) {
+    const Geometry* best = nullptr;
+    for (const Geometry& g : scene->geometries)
+      if (g.material < scene->materials.size() && scene->materials[g.material].alphaTested() &&
+          (!best || g.triangleCount() > best->triangleCount()))
+        best = &g;
+    BakeOptions o;
+    o.level = level;
+    o.format = format;
+    if (best)
+      if (auto baked = bakeGeometry(*best, scene->materials[best->material], o)) s.flat = std::move(baked->array);
+  }
+  if (!s.flat.indices.empty()) addQueries(s, level * 5 + uint32_t(format));
+  return cache.emplace(std::make_pair(level, format), std::move(s)).first->second;
+}
+
 // Leaf-card micromaps: 2048 at level 4, 256 at level 8, 12 at level 12 (flat: 64 KiB, 4 MiB and 24/48 MiB),
 // each triangle with its own leaf; 1/8 of the triangles fully transparent or opaque (special indices).
 const Scene& scene(uint32_t level, Format format) {
@@ -98,31 +144,16 @@ const Scene& scene(uint32_t level, Format format) {
     b.add(leafMap(shape, level, format));
   }
   s.flat = b.finish();
-  std::uniform_real_distribution<float> uf(0.f, 1.f);
-  const size_t queries = 1 << 16;
-  for (size_t q = 0; q < queries; ++q) {
-    float u = uf(rng), v = uf(rng);
-    if (u + v > 1.f) {
-      u = 1.f - u;
-      v = 1.f - v;
-    }
-    s.tri.push_back(uint32_t(rng() % s.flat.indices.size()));
-    s.u.push_back(u);
-    s.v.push_back(v);
-    s.want.push_back(s.flat.stateUV(s.tri.back(), u, v));
-  }
-  const EncodedArray flat = EncodedArray::build(s.flat, Encoding::Flat).value();
-  s.flatBytes = flat.byteSize();
-  s.flatNs =
-      nsPerLookup(s, [&](uint32_t t, float u, float v) { return flat.stateUVAs<Encoding::Flat>(t, u, v); });
+  addQueries(s, level * 3 + uint32_t(format));
   return cache.emplace(std::make_pair(level, format), std::move(s)).first->second;
 }
 
 template <Encoding E>
-void BM_Lookup(benchmark::State& state) {
-  const uint32_t level = uint32_t(state.range(0));
-  const Format format = Format(state.range(1));
-  const Scene& s = scene(level, format);
+void runLookups(benchmark::State& state, const Scene& s, uint32_t level) {
+  if (s.flat.indices.empty()) {
+    state.SkipWithError("scene unavailable");
+    return;
+  }
   const EncodedArray e = EncodedArray::build(s.flat, E).value();
   // The paper's lookups cost ~4^level at level 12: time them on the first 4096 queries only.
   const size_t nq = (E == Encoding::Dfs || E == Encoding::DfsFast) && level == 12 ? 4096 : s.tri.size();
@@ -146,6 +177,18 @@ void BM_Lookup(benchmark::State& state) {
   state.counters["bytes_x_flat"] = double(e.byteSize()) / double(s.flatBytes);
 }
 
+template <Encoding E>
+void BM_Lookup(benchmark::State& state) {
+  const uint32_t level = uint32_t(state.range(0));
+  runLookups<E>(state, scene(level, Format(state.range(1))), level);
+}
+
+template <Encoding E>
+void BM_LookupOak(benchmark::State& state) {
+  const uint32_t level = uint32_t(state.range(0));
+  runLookups<E>(state, oakScene(level, Format(state.range(1))), level);
+}
+
 void levelsAndFormats(benchmark::internal::Benchmark* b) {
   for (int level : {4, 8, 12})
     for (int f : {1, 2}) b->Args({level, f});
@@ -157,5 +200,10 @@ BENCHMARK(BM_Lookup<Encoding::Dfs>)->Apply(levelsAndFormats);
 BENCHMARK(BM_Lookup<Encoding::DfsFast>)->Apply(levelsAndFormats);
 BENCHMARK(BM_Lookup<Encoding::Rank>)->Apply(levelsAndFormats);
 BENCHMARK(BM_Lookup<Encoding::Hybrid>)->Apply(levelsAndFormats);
+BENCHMARK(BM_LookupOak<Encoding::Flat>)->Apply(levelsAndFormats);
+BENCHMARK(BM_LookupOak<Encoding::Dfs>)->Apply(levelsAndFormats);
+BENCHMARK(BM_LookupOak<Encoding::DfsFast>)->Apply(levelsAndFormats);
+BENCHMARK(BM_LookupOak<Encoding::Rank>)->Apply(levelsAndFormats);
+BENCHMARK(BM_LookupOak<Encoding::Hybrid>)->Apply(levelsAndFormats);
 
 }  // namespace

@@ -4,10 +4,10 @@
 // report the % of pixels differing.
 #include <benchmark/benchmark.h>
 
-#include <map>
 #include <memory>
 #include <string>
 
+#include "somm/bake.h"
 #include "somm/trace.h"
 #include "trace/trace_scenes.h"
 
@@ -26,13 +26,19 @@ struct TraceBench {
 TraceBench& bench() {
   static TraceBench b = [] {
     TraceBench b;
-    b.world = somm::TraceWorld::create(
-                  std::make_shared<const somm::Scene>(somm::testing::makeCardScene(kCards, 1, kTexture)))
+    b.world = somm::TraceWorld::create(std::make_shared<const somm::Scene>(somm::testing::makeCardScene(
+                                           kCards, 1, kTexture, /*specks=*/false)))
                   .value();
-    b.micromaps.flat4 = std::make_shared<const somm::OmmArrays>(
-        somm::bakeSimple(b.world->scene(), kLevel, somm::Format::FourState));
-    b.micromaps.flat2 = std::make_shared<const somm::OmmArrays>(
-        somm::bakeSimple(b.world->scene(), kLevel, somm::Format::TwoState));
+    // Micromaps from the baker (somm_bake), 4-state and 2-state.
+    for (somm::Format f : {somm::Format::FourState, somm::Format::TwoState}) {
+      somm::BakeOptions o;
+      o.level = kLevel;
+      o.format = f;
+      auto arrays = std::make_shared<somm::OmmArrays>();
+      for (const somm::Geometry& g : b.world->scene().geometries)
+        arrays->push_back(somm::bakeGeometry(g, b.world->scene().materials[g.material], o).value().array);
+      (f == somm::Format::FourState ? b.micromaps.flat4 : b.micromaps.flat2) = arrays;
+    }
     b.micromaps.bitmaskLevel = kLevel;
     b.settings.width = 320;
     b.settings.height = 240;

@@ -28,8 +28,8 @@ if has compare; then
   "$SOMM" compare "$SCENE" --levels 4,6,8,10 --formats 2,4
 fi
 
-echo "== somm bench $SCENE (crown close-up, 640x480, 5 interleaved repeats)"
-"$SOMM" bench "$SCENE" "${OMM[@]}" --level "$LEVEL" --camera "$CROWN" --repeat 5
+echo "== somm bench $SCENE (crown close-up, 512x384, 3 interleaved repeats)"
+"$SOMM" bench "$SCENE" "${OMM[@]}" --level "$LEVEL" --camera "$CROWN" --width 512 --height 384 --repeat 3
 
 RANK=omm4-rank
 "$SOMM" render "$SCENE" "${OMM[@]}" --level "$LEVEL" --method "$RANK" --width 8 --height 8 -o out/probe.png >/dev/null 2>&1 ||
@@ -39,6 +39,8 @@ for m in texture "$RANK" state-overlay; do
   "$SOMM" render "$SCENE" "${OMM[@]}" --level "$LEVEL" --method "$m" --width 800 --height 800 --spp 4 -o "out/oak-$m.png" \
     | head -1
 done
+"$SOMM" render "$SCENE" "${OMM[@]}" --level "$LEVEL" --method state-overlay --camera "$CROWN" --width 800 --height 600 \
+  --spp 4 -o out/oak-state-overlay-crown.png | head -1
 if cmp -s out/oak-texture.png "out/oak-$RANK.png"; then
   echo "out/oak-$RANK.png is identical to out/oak-texture.png (4-state micromaps are exact)"
 else

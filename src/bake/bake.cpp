@@ -24,6 +24,10 @@ struct Interval {
 // overlapping.
 int wrapInterval(int64_t a, int64_t b, uint32_t size, Wrap w, Interval out[4]) noexcept {
   const int64_t n = int64_t(size);
+  if (a >= 0 && b < n) {  // inside the texture: every wrap mode is the identity
+    out[0] = {uint32_t(a), uint32_t(b)};
+    return 1;
+  }
   switch (w) {
     case Wrap::ClampToEdge:
       out[0] = {uint32_t(std::clamp<int64_t>(a, 0, n - 1)), uint32_t(std::clamp<int64_t>(b, 0, n - 1))};
@@ -68,6 +72,18 @@ int wrapInterval(int64_t a, int64_t b, uint32_t size, Wrap w, Interval out[4]) n
   return 1;
 }
 
+// texelFloor without the libm call (std::floor is not inlined without SSE4.1).
+inline int64_t cellFloor(double x) noexcept {
+  if (!(std::fabs(x) < 1e15)) return texelFloor(x);
+  const int64_t i = int64_t(x);
+  return i - (double(i) > x ? 1 : 0);
+}
+
+// wrapTexel with a fast path for indices inside the texture.
+inline uint32_t wrapFast(int64_t i, uint32_t size, Wrap w) noexcept {
+  return i >= 0 && i < int64_t(size) ? uint32_t(i) : wrapTexel(i, size, w);
+}
+
 constexpr unsigned kPass = 1, kFail = 2, kMixed = 3;
 
 inline double min3(const double v[3]) {
@@ -85,7 +101,10 @@ uint8_t fillByte(Format f, State s) {
 
 // Linear filter: regions touching at most this many cells get the exact bilinear bound (leaves / inner
 // nodes).
-constexpr int64_t kLeafCells = 1024, kNodeCells = 16;
+constexpr int64_t kLeafCells = 1024, kNodeCells = 4;
+
+// Texel coordinates at or beyond this magnitude make a triangle unknown (texelFloor clamps at 1e15).
+constexpr double kMaxTexelCoord = 1e14;
 
 // Rows of cells beyond which a region is declared mixed without enumerating (still conservative).
 constexpr int64_t kMaxRows = int64_t(1) << 22;
@@ -150,14 +169,12 @@ struct TriangleClassifier {
       hi = std::max(hi, v);
       const int q1 = q + 1 == n ? 0 : q + 1;
       const double ex = px[q1] - px[q], ey = py[q1] - py[q];
-      const double q2 = D * ex * ey;
-      if (q2 != 0) {
-        const double ts = -(B * ex + C * ey + D * (px[q] * ey + py[q] * ex)) / (2 * q2);
-        if (ts > 0 && ts < 1) {
-          const double w = f(px[q] + ts * ex, py[q] + ts * ey);
-          lo = std::min(lo, w);
-          hi = std::max(hi, w);
-        }
+      // f along the edge: v + c1·t + c2·t², stationary at t = −c1 / (2·c2) with value v − c1² / (4·c2).
+      const double c2 = D * ex * ey, c1 = B * ex + C * ey + D * (px[q] * ey + py[q] * ex);
+      if ((c1 < 0) != (c2 < 0) && std::fabs(c1) < 2 * std::fabs(c2)) {
+        const double w = v - c1 * c1 / (4 * c2);
+        lo = std::min(lo, w);
+        hi = std::max(hi, w);
       }
     }
     if (std::isnan(lo) || std::isnan(hi)) lo = hi = std::numeric_limits<double>::quiet_NaN();
@@ -205,11 +222,12 @@ struct TriangleClassifier {
   // at most this many cells get the exact bilinear bound (bilinearCells) instead of the four-corner bound.
   unsigned region(const double X[3], const double Y[3], int64_t cellLimit) const noexcept {
     const double m = margin;
-    const int64_t i0 = texelFloor(min3(X) - m), i1 = texelFloor(max3(X) + m);
-    const int64_t j0 = texelFloor(min3(Y) - m), j1 = texelFloor(max3(Y) + m);
+    const int64_t i0 = cellFloor(min3(X) - m), i1 = cellFloor(max3(X) + m);
+    const int64_t j0 = cellFloor(min3(Y) - m), j1 = cellFloor(max3(Y) + m);
     const unsigned box = rect(i0, i1, j0, j1);
     if (box != kMixed) return box;
-    if (ext && (i1 - i0 + 1) * (j1 - j0 + 1) <= cellLimit) return bilinearCells(X, Y, j0, j1);
+    if (ext && i1 - i0 < cellLimit && j1 - j0 < cellLimit && (i1 - i0 + 1) * (j1 - j0 + 1) <= cellLimit)
+      return bilinearCells(X, Y, j0, j1);
     if (j0 == j1) return box;
     if (j1 - j0 > kMaxRows) return kMixed;
     // Exact: per row of cells, the x-extent of the grown triangle within the row.
@@ -217,7 +235,7 @@ struct TriangleClassifier {
     for (int64_t j = j0; j <= j1; ++j) {
       double xl, xr;
       if (!slabExtent(X, Y, double(j) - m, double(j + 1) + m, xl, xr)) continue;
-      acc |= rect(texelFloor(xl - m), texelFloor(xr + m), j, j);
+      acc |= rect(cellFloor(xl - m), cellFloor(xr + m), j, j);
       if (acc == kMixed) return kMixed;
     }
     return acc;
@@ -240,10 +258,10 @@ struct TriangleClassifier {
     for (int64_t j = j0; j <= j1; ++j) {
       double xl, xr;
       if (!slabExtent(X, Y, double(j) - m, double(j + 1) + m, xl, xr)) continue;
-      const uint32_t ya = wrapTexel(j, t.height, smp.wrapT), yb = wrapTexel(j + 1, t.height, smp.wrapT);
-      const int64_t a = texelFloor(xl - m), b = texelFloor(xr + m);
+      const uint32_t ya = wrapFast(j, t.height, smp.wrapT), yb = wrapFast(j + 1, t.height, smp.wrapT);
+      const int64_t a = cellFloor(xl - m), b = cellFloor(xr + m);
       for (int64_t i = a; i <= b; ++i) {
-        const uint32_t xa = wrapTexel(i, t.width, smp.wrapS), xb = wrapTexel(i + 1, t.width, smp.wrapS);
+        const uint32_t xa = wrapFast(i, t.width, smp.wrapS), xb = wrapFast(i + 1, t.width, smp.wrapS);
         const float c00 = t.at(xa, ya), c10 = t.at(xb, ya), c01 = t.at(xa, yb), c11 = t.at(xb, yb);
         const int passes = alphaTestPasses(c00, cutoff) + alphaTestPasses(c10, cutoff) +
                            alphaTestPasses(c01, cutoff) + alphaTestPasses(c11, cutoff);
@@ -259,9 +277,18 @@ struct TriangleClassifier {
           px[k] = X[k] - double(i);
           py[k] = Y[k] - double(j);
         }
-        // Cheap first: the cell's polynomial over the whole of T (a superset of T's part near the cell).
-        double lo, hi;
-        polygonRange(A, B, C, D, px, py, 3, lo, hi);
+        // Cheap first: the cell's polynomial over the whole of T (a superset of T's part near the cell),
+        // bounded by its degree-2 Bernstein coefficients on T: the vertex values and, per edge, (f_i + f_j)/2
+        // − D·Δx·Δy/2.
+        double fv[3], lo, hi;
+        for (int k = 0; k < 3; ++k) fv[k] = A + B * px[k] + C * py[k] + D * px[k] * py[k];
+        lo = hi = fv[0];
+        for (int k = 0; k < 3; ++k) {
+          const int k1 = k == 2 ? 0 : k + 1;
+          const double e = (fv[k] + fv[k1]) * 0.5 - D * (px[k1] - px[k]) * (py[k1] - py[k]) * 0.5;
+          lo = std::min(lo, std::min(fv[k], e));
+          hi = std::max(hi, std::max(fv[k], e));
+        }
         unsigned cls = decide(lo - grow, hi + grow, cutoff, tol);
         if (cls == kMixed) cls = clippedCell(A, B, C, D, px, py, grow, cutoff, tol);
         acc |= cls;
@@ -356,15 +383,21 @@ void bakeOne(const AlphaMask& mask, std::array<float, 2> uv0, std::array<float, 
   out.uniform.reset();
   out.unknown = 0;
   out.nonFinite = false;
-  if (!finite2(uv0) || !finite2(uv1) || !finite2(uv2)) {
+  const double W = mask.width(), H = mask.height();
+  double X[3] = {double(uv0[0]) * W, double(uv1[0]) * W, double(uv2[0]) * W};
+  double Y[3] = {double(uv0[1]) * H, double(uv1[1]) * H, double(uv2[1]) * H};
+  // NaN/inf UVs, or texel coordinates so large that sampleAlpha's clamped texel arithmetic no longer
+  // interpolates
+  // (|x| ≥ 1e15): not classified.
+  bool usable = true;
+  for (int k = 0; k < 3; ++k)
+    usable = usable && std::fabs(X[k]) < kMaxTexelCoord && std::fabs(Y[k]) < kMaxTexelCoord;
+  if (!usable) {
     out.nonFinite = true;
     out.uniform = wholeUnknown(format, unknownAs);
     out.unknown = microTriangleCount(level);
     return;
   }
-  const double W = mask.width(), H = mask.height();
-  double X[3] = {double(uv0[0]) * W, double(uv1[0]) * W, double(uv2[0]) * W};
-  double Y[3] = {double(uv0[1]) * H, double(uv1[1]) * H, double(uv2[1]) * H};
   TriangleClassifier c{mask};
   c.margin = bakeMarginTexels(X, Y);
   c.shift = mask.sampler().filter == Filter::Linear ? 0.5 : 0.0;
@@ -386,7 +419,9 @@ void bakeOne(const AlphaMask& mask, std::array<float, 2> uv0, std::array<float, 
     out.unknown = 1;
     return;
   }
-  out.map = Micromap(level, format);
+  // Every micro-triangle is written by node(), so a map of the same shape from an earlier triangle is reused
+  // as is.
+  if (out.map.level() != level || out.map.format() != format) out.map = Micromap(level, format);
   c.bytes = out.map.bytes().data();
   c.node(X, Y, 0, 0, r);
   out.unknown = c.unknown;
@@ -449,8 +484,10 @@ std::vector<uint8_t> chooseLevels(const Geometry& g, const AlphaMask& mask, cons
 }
 
 // Bakes every triangle at min(level, cap) into `out`.
+// Progress of this pass is reported as progressBase + fraction · progressSpan.
 void bakeAll(const Geometry& g, const AlphaMask& mask, const std::vector<uint8_t>& levels, uint32_t cap,
-             const BakeOptions& o, tbb::task_arena& arena, BakedGeometry& out) {
+             const BakeOptions& o, tbb::task_arena& arena, BakedGeometry& out, double progressBase,
+             double progressSpan) {
   const uint32_t n = g.triangleCount();
   OmmArrayBuilder builder;
   BakeStats& st = out.stats;
@@ -467,7 +504,7 @@ void bakeAll(const Geometry& g, const AlphaMask& mask, const std::vector<uint8_t
       bytes += micromapDataBytes(std::min<uint32_t>(levels[end], cap), o.format);
       ++end;
     }
-    slots.resize(end - t);
+    if (slots.size() < end - t) slots.resize(end - t);  // maps are kept for reuse by the next chunk
     arena.execute([&] {
       tbb::parallel_for(tbb::blocked_range<uint32_t>(t, end, 8), [&](const tbb::blocked_range<uint32_t>& r) {
         for (uint32_t i = r.begin(); i != r.end(); ++i) {
@@ -488,10 +525,9 @@ void bakeAll(const Geometry& g, const AlphaMask& mask, const std::vector<uint8_t
         builder.addSpecial(*b.uniform);
       else
         builder.add(b.map);
-      b.map = Micromap();
     }
     t = end;
-    if (o.progress) o.progress(double(t) / double(n));
+    if (o.progress) o.progress(progressBase + progressSpan * double(t) / double(n));
   }
   out.array = builder.finish();
 }
@@ -639,16 +675,22 @@ Result<BakedGeometry> bakeGeometry(const Geometry& geometry, const Material& mat
   tbb::task_arena arena(options.threads ? int(options.threads) : tbb::task_arena::automatic);
   const std::vector<uint8_t> levels = chooseLevels(geometry, *mask, options);
   const uint32_t top = levels.empty() ? 0 : *std::max_element(levels.begin(), levels.end());
-  bakeAll(geometry, *mask, levels, kMaxLevel, options, arena, out);
+  // With maxBytes, re-bakes may follow: pass k reports within [1 − 2^−k, 1 − 2^−(k+1)], so progress stays
+  // monotone.
+  double span = options.maxBytes > 0 ? 0.5 : 1.0, base = 0;
+  bakeAll(geometry, *mask, levels, kMaxLevel, options, arena, out, base, span);
   out.stats.levelCap = kMaxLevel;
   if (options.maxBytes > 0) {
     // Lower the largest maps (the highest levels) one level at a time until the data fits. Level 0 always
     // fits: a one-state map is uniform and becomes a special index.
     for (uint32_t cap = top; out.array.data.size() > options.maxBytes && cap-- > 0;) {
-      bakeAll(geometry, *mask, levels, cap, options, arena, out);
+      base += span;
+      span *= 0.5;
+      bakeAll(geometry, *mask, levels, cap, options, arena, out, base, span);
       out.stats.levelCap = cap;
     }
   }
+  if (options.progress && span != 1.0) options.progress(1.0);
   finishStats(out);
   out.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;

@@ -302,7 +302,7 @@ Status GltfLoader::loadMaterials() {
         m.alphaMode = AlphaMode::Blend;
         scene_.warnings.push_back(
             "material '" + m.name +
-            "' uses alphaMode BLEND: not alpha-tested, no micromaps (use blend-as-mask)");
+            "' uses alphaMode BLEND: not alpha-tested, no micromaps (--blend-as-mask bakes it as MASK)");
       }
     } else if (gm.alphaMode.empty() || gm.alphaMode == "OPAQUE") {
       m.alphaMode = AlphaMode::Opaque;

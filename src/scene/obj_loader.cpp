@@ -228,12 +228,13 @@ Result<Scene> ObjLoader::run() {
         const tinyobj::index_t& ix = mesh.indices[offset + k];
         if (ix.vertex_index < 0 || size_t(ix.vertex_index) >= nv)
           return fail(ErrorCode::ParseError, "face " + std::to_string(f + 1) + " of shape '" + shapeName +
-                                                 "' has a vertex index out of range (" + std::to_string(nv) +
-                                                 " vertices)");
+                                                 "' refers to vertex " + std::to_string(ix.vertex_index + 1) +
+                                                 " but the file has " + std::to_string(nv) + " vertices");
         if (ix.texcoord_index >= 0 && size_t(ix.texcoord_index) >= nt)
           return fail(ErrorCode::ParseError, "face " + std::to_string(f + 1) + " of shape '" + shapeName +
-                                                 "' has a texture coordinate index out of range (" +
-                                                 std::to_string(nt) + " texture coordinates)");
+                                                 "' refers to texture coordinate " +
+                                                 std::to_string(ix.texcoord_index + 1) + " but the file has " +
+                                                 std::to_string(nt) + " texture coordinates");
         const uint64_t vkey = (uint64_t(uint32_t(ix.vertex_index)) << 32) | uint32_t(ix.texcoord_index);
         auto [vit, inserted] = b.remap.emplace(vkey, uint32_t(g.positions.size() / 3));
         if (inserted) {

@@ -13,14 +13,9 @@
 #include <limits>
 #include <map>
 
-#include "trace_internal.h"
-
-#if __has_include("somm/encode.h")
 #include "somm/encode.h"
+#include "trace_internal.h"
 #define SOMM_TRACE_HAS_ENCODINGS 1
-#else
-#define SOMM_TRACE_HAS_ENCODINGS 0
-#endif
 
 namespace somm {
 
@@ -604,14 +599,26 @@ Result<std::unique_ptr<Tracer>> makeEncoded(std::shared_ptr<const TraceWorld> wo
   for (auto& d : store->data) user.push_back(&d);
   RTCFilterFunctionN f = nullptr;
   switch (encoding) {
-    case Encoding::Flat: f = encodedFilter<Encoding::Flat>(format); break;
-    case Encoding::Dfs: f = encodedFilter<Encoding::Dfs>(format); break;
-    case Encoding::DfsFast: f = encodedFilter<Encoding::DfsFast>(format); break;
-    case Encoding::Rank: f = encodedFilter<Encoding::Rank>(format); break;
-    case Encoding::Hybrid: f = encodedFilter<Encoding::Hybrid>(format); break;
+    case Encoding::Flat:
+      f = encodedFilter<Encoding::Flat>(format);
+      break;
+    case Encoding::Dfs:
+      f = encodedFilter<Encoding::Dfs>(format);
+      break;
+    case Encoding::DfsFast:
+      f = encodedFilter<Encoding::DfsFast>(format);
+      break;
+    case Encoding::Rank:
+      f = encodedFilter<Encoding::Rank>(format);
+      break;
+    case Encoding::Hybrid:
+      f = encodedFilter<Encoding::Hybrid>(format);
+      break;
   }
-  const std::string name = std::string(format == Format::TwoState ? "omm2-" : "omm4-") + encodingName(encoding);
-  return TracerFactory::build(std::move(world), name, bytes, f, std::move(user), store, MethodKind::Omm, nullptr);
+  const std::string name =
+      std::string(format == Format::TwoState ? "omm2-" : "omm4-") + encodingName(encoding);
+  return TracerFactory::build(std::move(world), name, bytes, f, std::move(user), store, MethodKind::Omm,
+                              nullptr);
 }
 
 }  // namespace
@@ -640,7 +647,8 @@ Result<std::unique_ptr<Tracer>> makeTracer(std::shared_ptr<const TraceWorld> wor
       if (Status s = need(arrays); !s) return s.error();
       if (method.encoding == "flat") return makeFlatOmmTracer(std::move(world), arrays, method.format);
 #if SOMM_TRACE_HAS_ENCODINGS
-      if (auto e = parseEncodingName(method.encoding)) return makeEncoded(std::move(world), arrays, method.format, *e);
+      if (auto e = parseEncodingName(method.encoding))
+        return makeEncoded(std::move(world), arrays, method.format, *e);
 #endif
       return makeError(ErrorCode::InvalidArgument, "method " + method.name() + ": encoding not available");
     }
@@ -669,9 +677,9 @@ V3 baseColor(const Material& m, float s, float t) {
 V3 stateColor(State s) {
   switch (s) {
     case State::Opaque:
-      return {0.25f, 0.85f, 0.3f};
+      return {0.45f, 0.8f, 0.45f};
     case State::UnknownOpaque:
-      return {1.0f, 0.65f, 0.1f};
+      return {1.0f, 0.55f, 0.0f};
     case State::UnknownTransparent:
       return {0.95f, 0.25f, 0.2f};
     case State::Transparent:
@@ -789,7 +797,9 @@ RenderResult Tracer::render(const RenderSettings& settings) const {
               if (sr.tfar < 0.0f) direct = 0.0f;
             }
           }
-          acc = add(acc, mul(albedo, 0.3f + 0.7f * direct));
+          // The overlay keeps shading contrast low so that the state colours stay readable.
+          acc = add(acc, mul(albedo, kind == MethodKind::StateOverlay ? 0.65f + 0.35f * direct
+                                                                      : 0.3f + 0.7f * direct));
         }
         uint8_t* px = result.image.rgba.data() + (size_t(y) * W + x) * 4;
         for (int k = 0; k < 3; ++k) {
@@ -819,6 +829,12 @@ RenderResult Tracer::render(const RenderSettings& settings) const {
 
 namespace somm::detail {
 std::vector<std::string> encodingNames() {
+#if SOMM_TRACE_HAS_ENCODINGS
+  std::vector<std::string> names;
+  for (Encoding e : kAllEncodings) names.push_back(encodingName(e));
+  return names;
+#else
   return {"flat"};
+#endif
 }
 }  // namespace somm::detail

@@ -341,6 +341,13 @@ TEST(BakeGeometry, NonFiniteUvsAreWholeTriangleUnknown) {
   o.unknownAs = UnknownAs::Transparent;
   r = bakeGeometry(g, m, o);
   EXPECT_EQ(r->array.indices[0], specialIndexFor(State::Transparent));
+  // Finite but absurdly large UVs (beyond the texel range sampleAlpha interpolates in) are unknown too.
+  const AlphaMask mask(*m.alpha, m.sampler, 0.5f);
+  const TriangleBake big =
+      bakeTriangle(mask, {3e12f, 0}, {3e12f + 1e6f, 0}, {3e12f, 1}, 2, Format::FourState);
+  EXPECT_TRUE(big.nonFiniteUv);
+  EXPECT_EQ(big.map.uniformState(), State::UnknownOpaque);
+  EXPECT_EQ(big.unknownCount, 16u);
 }
 
 TEST(BakeGeometry, ZeroAreaTrianglesClassifiedFromWhatTheyTouch) {
@@ -401,6 +408,16 @@ TEST(BakeGeometry, ProgressReachesOne) {
   ASSERT_GE(seen.size(), 2u);
   EXPECT_TRUE(std::is_sorted(seen.begin(), seen.end()));
   EXPECT_EQ(seen.back(), 1.0);
+  // With re-bakes for maxBytes the progress stays monotone and ends at 1.
+  seen.clear();
+  o.level = 5;
+  o.maxBytes = 2000;
+  auto r = bakeGeometry(g, m, o);
+  ASSERT_TRUE(r.ok());
+  EXPECT_LT(r->stats.levelCap, 4u);  // several passes
+  EXPECT_TRUE(std::is_sorted(seen.begin(), seen.end()));
+  EXPECT_EQ(seen.back(), 1.0);
+  EXPECT_LE(r->array.data.size(), 2000u);
 }
 
 }  // namespace

@@ -37,6 +37,10 @@ double checkExact(const std::shared_ptr<const Scene>& scene, uint32_t level, uin
   m.bitmaskLevel = level;
   auto texture = makeTextureTracer(*world).value();
   auto omm4 = makeTracer(*world, parseMethod("omm4-flat").value(), m).value();
+  std::vector<std::unique_ptr<Tracer>> encoded;  // every compressed encoding, 4-state
+  for (const std::string& e : traceEncodings())
+    if (e != "flat") encoded.push_back(makeTracer(*world, parseMethod("omm4-" + e).value(), m).value());
+  EXPECT_GE(encoded.size(), 4u);
   auto omm2 = makeTracer(*world, parseMethod("omm2-flat").value(), m).value();
   auto bitmask = makeTracer(*world, parseMethod("bitmask").value(), m).value();
   // The default view, then views around the scene centre: oblique, grazing (nearly edge-on) and close up.
@@ -60,6 +64,12 @@ double checkExact(const std::shared_ptr<const Scene>& scene, uint32_t level, uin
     const RenderResult r4 = omm4->render(rs);
     EXPECT_EQ(r4.image.rgba, ref.image.rgba) << scene->sourcePath << " level " << level;
     EXPECT_LE(r4.counters.textureTests, ref.counters.textureTests);
+    for (const auto& t : encoded) {
+      const RenderResult re = t->render(rs);
+      EXPECT_EQ(re.image.rgba, ref.image.rgba)
+          << scene->sourcePath << " " << t->method() << " level " << level;
+      EXPECT_EQ(re.counters, r4.counters) << t->method();  // same lookups, same states as flat
+    }
     EXPECT_EQ(bitmask->render(rs).image.rgba, ref.image.rgba)
         << scene->sourcePath << " bitmask level " << level;
     const RenderResult r2 = omm2->render(rs);

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "command.h"
+#include "encodings.h"
 #include "file_summary.h"
 #include "somm/somm_file.h"
 
@@ -62,6 +63,18 @@ void printSummary(somm::cli::Output& out, const somm::cli::ArraySummary& s, cons
           somm::cli::humanBytes(s.dataBytes + s.descriptorBytes + s.indexBytes) + "\n");
 }
 
+// "encoded sizes: flat 1234 B, rank 120 B (0.0972×), ..."
+std::string ratioLine(const somm::cli::EncodingSizes& s) {
+  std::string line = "encoded sizes: flat " + std::to_string(s.flat) + " B";
+  for (const auto& [e, b] : s.stored) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, " (%.4fx)", s.flat ? double(b) / double(s.flat) : 0.0);
+    line += std::string(", ") + somm::encodingName(e) + " " + std::to_string(b) + " B" + buf;
+  }
+  for (const auto& [e, msg] : s.invalid) line += std::string(", ") + somm::encodingName(e) + " unreadable";
+  return line;
+}
+
 int run(const Options& o) {
   using namespace somm::cli;
   auto file = somm::readSommFile(o.path);
@@ -87,6 +100,19 @@ int run(const Options& o) {
       else
         it->second += e.bytes.size();
     }
+
+  // Exact bytes of every stored encoding and their ratio to flat (docs/encodings.md); JSON adds zstd/xz references.
+  somm::cli::EncodingSizes sizeTotal;
+  std::vector<somm::cli::EncodingSizes> sizes;
+  for (size_t i = 0; i < f.geometries.size(); ++i) {
+    auto s = somm::cli::encodingSizes(f.geometries[i], uint32_t(i), o.path, o.json);
+    if (!s) {
+      printError("info", s.error().message);
+      return kExitFailure;
+    }
+    sizes.push_back(*s);
+    sizeTotal.add(*s);
+  }
 
   Output out;
   if (o.json) {
@@ -116,6 +142,7 @@ int run(const Options& o) {
       for (const somm::EncodedSection& e : g.extra)
         enc.push_back({{"id", somm::sectionIdName(e.id)}, {"bytes", e.bytes.size()}});
       x["encodings"] = enc;
+      x["encoding_sizes"] = somm::cli::encodingSizesJson(sizes[i]);
       geos.push_back(std::move(x));
     }
     j["geometries"] = geos;
@@ -125,6 +152,7 @@ int run(const Options& o) {
     for (const auto& [id, bytes] : encTotals)
       enc.push_back({{"id", somm::sectionIdName(id)}, {"bytes", bytes}});
     t["encodings"] = enc;
+    t["encoding_sizes"] = somm::cli::encodingSizesJson(sizeTotal);
     j["total"] = t;
     out.put(dumpJson(j));
     out.put("\n");
@@ -153,6 +181,7 @@ int run(const Options& o) {
       for (const somm::EncodedSection& e : g.extra)
         out.put(" " + somm::sectionIdName(e.id) + " " + std::to_string(e.bytes.size()) + " B");
       out.put("\n");
+      out.put("  " + ratioLine(sizes[i]) + "\n");
     }
   }
   out.put("total: " + std::to_string(f.geometries.size()) + " geometries, " +
@@ -163,6 +192,7 @@ int run(const Options& o) {
     for (const auto& [id, bytes] : encTotals)
       out.put(" " + somm::sectionIdName(id) + " " + std::to_string(bytes) + " B");
     out.put("\n");
+    out.put("  " + ratioLine(sizeTotal) + "\n");
   }
   return kExitOk;
 }

@@ -3,6 +3,7 @@
 #include <string>
 
 #include "command.h"
+#include "encodings.h"
 #include "somm/somm_file.h"
 
 namespace {
@@ -11,6 +12,7 @@ struct Options {
   std::string path;
   uint64_t geometry = 0;
   uint64_t triangle = 0;
+  std::string encoding = "flat";
 };
 
 int run(const Options& o) {
@@ -33,6 +35,17 @@ int run(const Options& o) {
                             " triangles");
     return kExitUsage;
   }
+  const auto enc = somm::parseEncodingName(o.encoding);
+  if (!enc) {
+    printError("query", "--encoding '" + o.encoding + "' is not one of flat, dfs, dfs-fast, rank, hybrid");
+    return kExitUsage;
+  }
+  auto encoded = loadEncoding(g, uint32_t(o.geometry), *enc, o.path);
+  if (!encoded) {
+    printError("query", encoded.error().message);
+    return kExitFailure;
+  }
+  const somm::EncodedArray& array = *encoded;
   const uint32_t t = uint32_t(o.triangle);
   const bool twoState = g.info.format == somm::Format::TwoState;
   LineReader in(stdin);
@@ -50,7 +63,7 @@ int run(const Options& o) {
                               ": expected two floats 'u v', got '" + excerpt(line) + "'");
       return kExitUsage;
     }
-    somm::State s = g.flat.stateUV(t, u, v);
+    somm::State s = array.stateUV(t, u, v);
     if (twoState) s = somm::toTwoState(s);
     out.putChar(char('0' + int(s)));
     out.putChar('\n');
@@ -70,6 +83,8 @@ void setup(CLI::App& root) {
   cmd->add_option("file", opts->path, ".somm file")->required();
   cmd->add_option("--geometry,-g", opts->geometry, "geometry index (see somm info)")->required();
   cmd->add_option("--triangle,-t", opts->triangle, "triangle index within the geometry")->required();
+  cmd->add_option("--encoding,-e", opts->encoding,
+                  "answer from this stored encoding: flat (default), dfs, dfs-fast, rank or hybrid");
   cmd->callback([opts] { somm::cli::setExitCode(run(*opts)); });
 }
 

@@ -1,0 +1,170 @@
+// somm query --encoding, somm info --json encoding sizes, somm compare.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+#include <random>
+#include <string>
+
+#include "cli/cli_helpers.h"
+#include "somm/encode.h"
+#include "somm/somm_file.h"
+#include "somm_test_arrays.h"
+
+namespace somm {
+namespace {
+
+using testing::RunResult;
+using testing::runSomm;
+using testing::sampleFile;
+using testing::shellQuote;
+using testing::TempDir;
+
+constexpr std::pair<Encoding, const char*> kStored[] = {{Encoding::Dfs, "dfs "},
+                                                        {Encoding::DfsFast, "dfsf"},
+                                                        {Encoding::Rank, "rank"},
+                                                        {Encoding::Hybrid, "hybr"}};
+
+// The sample file with every encoding of every geometry stored as its section (docs/encodings.md).
+SommFile encodedSample() {
+  SommFile f = sampleFile(300, 5);
+  for (SommGeometry& g : f.geometries) {
+    g.extra.clear();
+    for (const auto& [e, id] : kStored) {
+      char name[5] = {id[0], id[1], id[2], id[3], 0};
+      g.extra.push_back(EncodedSection{sectionId(name), EncodedArray::build(g.flat, e).value().serialize()});
+    }
+  }
+  return f;
+}
+
+std::string writeFile(const TempDir& dir, const SommFile& f) {
+  const std::string p = dir / "enc.somm";
+  EXPECT_TRUE(writeSommFile(p, f).ok());
+  return p;
+}
+
+TEST(CliEncode, QueryAnswersFromEveryEncoding) {
+  TempDir dir;
+  const SommFile f = encodedSample();
+  const std::string p = writeFile(dir, f);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> d(0, 1);
+  std::string input;
+  std::vector<std::pair<float, float>> uv;
+  for (int i = 0; i < 300; ++i) {
+    float u = d(rng), v = d(rng);
+    if (u + v > 1) u = 1 - u, v = 1 - v;
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%a %a\n", double(u), double(v));
+    input += buf;
+    uv.emplace_back(u, v);
+  }
+  testing::writeText(dir / "uv.txt", input);
+  for (uint32_t g = 0; g < 2; ++g)
+    for (uint32_t t : {0u, 7u, 42u, 299u}) {
+      std::string want;
+      for (const auto& [u, v] : uv) {
+        State s = f.geometries[g].flat.stateUV(t, u, v);
+        if (f.geometries[g].info.format == Format::TwoState) s = toTwoState(s);
+        want += char('0' + int(s));
+        want += '\n';
+      }
+      for (const char* e : {"flat", "dfs", "dfs-fast", "rank", "hybrid"}) {
+        const RunResult r = runSomm(dir,
+                                    "query " + shellQuote(p) + " -g " + std::to_string(g) + " -t " +
+                                        std::to_string(t) + " --encoding " + e,
+                                    dir / "uv.txt");
+        ASSERT_EQ(r.exitCode, 0) << e << ": " << r.err;
+        EXPECT_EQ(r.out, want) << e << " geometry " << g << " triangle " << t;
+      }
+    }
+}
+
+TEST(CliEncode, QueryErrors) {
+  TempDir dir;
+  SommFile f = encodedSample();
+  f.geometries[0].extra.erase(f.geometries[0].extra.begin() + 2);  // no rank in geometry 0
+  f.geometries[1].extra[0].bytes[0] ^= 0xff;                       // corrupt dfs in geometry 1
+  const std::string p = writeFile(dir, f);
+  testing::writeText(dir / "uv.txt", "0.1 0.2\n");
+  RunResult r = runSomm(dir, "query " + shellQuote(p) + " -g 0 -t 0 --encoding rank", dir / "uv.txt");
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.err.find("stores no 'rank' encoding"), std::string::npos) << r.err;
+  r = runSomm(dir, "query " + shellQuote(p) + " -g 1 -t 0 --encoding dfs", dir / "uv.txt");
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.err.find("bad magic"), std::string::npos) << r.err;
+  r = runSomm(dir, "query " + shellQuote(p) + " -g 0 -t 0 --encoding zip", dir / "uv.txt");
+  EXPECT_EQ(r.exitCode, 2);
+  // info still describes the file and reports the unreadable section.
+  r = runSomm(dir, "info " + shellQuote(p) + " --json");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_TRUE(j["geometries"][1]["encoding_sizes"]["dfs"].contains("error"));
+  EXPECT_FALSE(j["geometries"][0]["encoding_sizes"].contains("rank"));
+}
+
+TEST(CliEncode, InfoReportsExactSizesAndRatios) {
+  TempDir dir;
+  const SommFile f = encodedSample();
+  const std::string p = writeFile(dir, f);
+  const RunResult r = runSomm(dir, "info " + shellQuote(p) + " --json");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  uint64_t totalFlat = 0, totalRank = 0;
+  for (size_t g = 0; g < f.geometries.size(); ++g) {
+    const nlohmann::json& s = j["geometries"][g]["encoding_sizes"];
+    const uint64_t flat = EncodedArray::build(f.geometries[g].flat, Encoding::Flat).value().byteSize();
+    EXPECT_EQ(s["flat"]["bytes"], flat);
+    EXPECT_EQ(s["flat"]["ratio_to_flat"], 1.0);
+    for (const auto& [e, id] : kStored) {
+      const uint64_t bytes = EncodedArray::build(f.geometries[g].flat, e).value().byteSize();
+      EXPECT_EQ(s[encodingName(e)]["bytes"], bytes);
+      EXPECT_DOUBLE_EQ(s[encodingName(e)]["ratio_to_flat"].get<double>(), double(bytes) / double(flat));
+      if (e == Encoding::Rank) totalRank += bytes;
+    }
+    EXPECT_LE(s["hybrid"]["bytes"].get<uint64_t>(), flat + encode::kTailPadding);
+    EXPECT_EQ(s["zstd-19"]["random_access"], false);
+    EXPECT_GT(s["zstd-19"]["bytes"].get<uint64_t>(), 0u);
+    EXPECT_GT(s["xz-9"]["bytes"].get<uint64_t>(), 0u);
+    totalFlat += flat;
+  }
+  EXPECT_EQ(j["total"]["encoding_sizes"]["flat"]["bytes"], totalFlat);
+  EXPECT_EQ(j["total"]["encoding_sizes"]["rank"]["bytes"], totalRank);
+  // The text form prints the ratios too.
+  const RunResult t = runSomm(dir, "info " + shellQuote(p));
+  ASSERT_EQ(t.exitCode, 0) << t.err;
+  EXPECT_NE(t.out.find("encoded sizes: flat "), std::string::npos) << t.out;
+}
+
+TEST(CliEncode, CompareTableJsonAndPlot) {
+  TempDir dir;
+  RunResult r = runSomm(dir, "compare procedural:leaf-cards:6 --levels 2,5 --formats 2,4 --json --plot " +
+                                 shellQuote(dir / "plot.png"));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  ASSERT_EQ(j["rows"].size(), 4u);
+  for (const auto& row : j["rows"]) {
+    EXPECT_EQ(row["flat"]["ratio_to_flat"], 1.0);
+    EXPECT_EQ(row["dfs"]["bytes"], row["dfs-fast"]["bytes"]);
+    EXPECT_LE(row["hybrid"]["bytes"].get<uint64_t>(),
+              row["flat"]["bytes"].get<uint64_t>() + encode::kTailPadding);
+    EXPECT_LE(row["hybrid"]["bytes"].get<uint64_t>(), row["rank"]["bytes"].get<uint64_t>());
+  }
+  EXPECT_EQ(j["rows"][0]["level"], 2);
+  EXPECT_EQ(j["rows"][0]["format"], 2);
+  EXPECT_EQ(j["rows"][3]["level"], 5);
+  EXPECT_EQ(j["rows"][3]["format"], 4);
+  const std::string png = testing::readText(dir / "plot.png");
+  ASSERT_GT(png.size(), 8u);
+  EXPECT_EQ(png.substr(1, 3), "PNG");
+  r = runSomm(dir, "compare procedural:leaf-cards:6 --levels 2,13");
+  EXPECT_EQ(r.exitCode, 2);
+  EXPECT_NE(r.err.find("--levels"), std::string::npos);
+  r = runSomm(dir, "compare procedural:leaf-cards:6 --formats 3");
+  EXPECT_EQ(r.exitCode, 2);
+  r = runSomm(dir, "compare " + shellQuote(dir / "missing.gltf"));
+  EXPECT_EQ(r.exitCode, 1);
+}
+
+}  // namespace
+}  // namespace somm

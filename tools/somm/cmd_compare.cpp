@@ -1,0 +1,362 @@
+// somm compare SCENE --levels 4,6,8,10,12 --formats 2,4 [--json] [--plot out.png]: bakes the scene at every
+// level and format and prints the memory table of every encoding (bytes and ratio to flat), optionally as a
+// PNG plot of the ratio against the level.
+#include <stb/stb_image_write.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "command.h"
+#include "encodings.h"
+#include "file_summary.h"
+#include "somm/bake.h"
+#include "somm/encode.h"
+#include "somm/procedural.h"
+#include "somm/scene.h"
+#include "somm/somm_file.h"
+
+namespace {
+
+using somm::Encoding;
+
+struct Options {
+  std::string scene;
+  std::string levels = "4,6,8,10,12";
+  std::string formats = "2,4";
+  bool json = false;
+  std::string plot;
+  uint32_t threads = 0;
+};
+
+struct Row {
+  uint32_t level = 0;
+  uint32_t states = 2;
+  uint64_t triangles = 0, maps = 0;
+  std::array<uint64_t, 5> bytes{};  // by Encoding
+  double ratio(Encoding e) const { return bytes[0] ? double(bytes[size_t(e)]) / double(bytes[0]) : 0.0; }
+};
+
+bool parseList(const std::string& text, std::vector<uint32_t>& out, uint32_t lo, uint32_t hi) {
+  out.clear();
+  size_t start = 0;
+  while (start <= text.size()) {
+    const size_t comma = std::min(text.find(',', start), text.size());
+    uint64_t v;
+    if (!somm::cli::parseUInt(std::string_view(text).substr(start, comma - start), v) || v < lo || v > hi)
+      return false;
+    if (std::find(out.begin(), out.end(), uint32_t(v)) == out.end()) out.push_back(uint32_t(v));
+    start = comma + 1;
+  }
+  std::sort(out.begin(), out.end());
+  return !out.empty();
+}
+
+// ---- a tiny PNG line plot ----
+
+// 5×7 glyphs for the characters the plot writes.
+const char* glyph(char c) {
+  switch (c) {
+    case '0':
+      return " ### #   ##  ### # ###  ##   # ### ";
+    case '1':
+      return "  #   ##    #    #    #    #   ### ";
+    case '2':
+      return " ### #   #    #   #   #   #   #####";
+    case '3':
+      return "#####   #   #     #     ##   # ### ";
+    case '4':
+      return "   #   ##  # # #  # #####   #    # ";
+    case '5':
+      return "######    ####     #    ##   # ### ";
+    case '6':
+      return "  ##  #   #    #### #   ##   # ### ";
+    case '7':
+      return "#####    #   #   #   #    #    #   ";
+    case '8':
+      return " ### #   ##   # ### #   ##   # ### ";
+    case '9':
+      return " ### #   ##   # ####    #   #  ##  ";
+    case '.':
+      return "                          ##   ##  ";
+    case '-':
+      return "               #####               ";
+    case 'a':
+      return "           ###     # #####   # ####";
+    case 'b':
+      return "#    #    # ## ##  ##   ##   ##### ";
+    case 'd':
+      return "    #    # ## ##  ###   ##   # ####";
+    case 'e':
+      return "           ### #   #######     ### ";
+    case 'f':
+      return "  ##  #  # #   ###   #    #    #   ";
+    case 'h':
+      return "#    #    # ## ##  ##   ##   ##   #";
+    case 'i':
+      return "  #        ##    #    #    #   ### ";
+    case 'k':
+      return "#    #    #  # # #  ##   # #  #  # ";
+    case 'l':
+      return " ##    #    #    #    #    #   ### ";
+    case 'n':
+      return "          # ## ##  ##   ##   ##   #";
+    case 'o':
+      return "           ### #   ##   ##   # ### ";
+    case 'r':
+      return "          # ## ##  ##    #    #    ";
+    case 's':
+      return "           #### #     ###     #### ";
+    case 't':
+      return " #    #   ###  #    #    #  #  ##  ";
+    case 'v':
+      return "          #   ##   ##   # # #   #  ";
+    case 'y':
+      return "          #   ##   # ####    # ### ";
+    case 'x':
+      return "          #   # # #   #   # # #   #";
+    case ',':
+      return "                         ##   #  # ";
+    case ':':
+      return "      ##   ##        ##   ##       ";
+    default:
+      return nullptr;
+  }
+}
+
+struct Canvas {
+  int w, h;
+  std::vector<uint8_t> px;
+  Canvas(int width, int height) : w(width), h(height), px(size_t(width) * size_t(height) * 4, 255) {}
+  void set(int x, int y, std::array<uint8_t, 3> c) {
+    if (x < 0 || y < 0 || x >= w || y >= h) return;
+    uint8_t* p = &px[(size_t(y) * size_t(w) + size_t(x)) * 4];
+    p[0] = c[0], p[1] = c[1], p[2] = c[2], p[3] = 255;
+  }
+  void line(int x0, int y0, int x1, int y1, std::array<uint8_t, 3> c, int width = 1, int dash = 0) {
+    const int dx = std::abs(x1 - x0), dy = -std::abs(y1 - y0), sx = x0 < x1 ? 1 : -1, sy = y0 < y1 ? 1 : -1;
+    int err = dx + dy, step = 0;
+    while (true) {
+      if (dash == 0 || (step / dash) % 2 == 0)
+        for (int i = -(width / 2); i <= width / 2; ++i)
+          for (int j = -(width / 2); j <= width / 2; ++j) set(x0 + i, y0 + j, c);
+      ++step;
+      if (x0 == x1 && y0 == y1) break;
+      const int e2 = 2 * err;
+      if (e2 >= dy) err += dy, x0 += sx;
+      if (e2 <= dx) err += dx, y0 += sy;
+    }
+  }
+  void text(int x, int y, const std::string& s, std::array<uint8_t, 3> c) {
+    for (char ch : s) {
+      if (const char* g = glyph(ch))
+        for (int r = 0; r < 7; ++r)
+          for (int k = 0; k < 5; ++k)
+            if (size_t(r * 5 + k) < std::char_traits<char>::length(g) && g[r * 5 + k] == '#')
+              set(x + k, y + r, c);
+      x += 6;
+    }
+  }
+};
+
+std::string fmt(const char* f, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, f, v);
+  return buf;
+}
+
+somm::Status writePlot(const std::string& path, const std::vector<Row>& rows,
+                       const std::vector<uint32_t>& levels, const std::vector<uint32_t>& formats) {
+  Canvas cv(900, 520);
+  const int left = 70, right = 700, top = 20, bottom = 470;
+  double lo = 1, hi = 1;
+  for (const Row& r : rows)
+    for (Encoding e : somm::kAllEncodings)
+      if (r.ratio(e) > 0) lo = std::min(lo, r.ratio(e)), hi = std::max(hi, r.ratio(e));
+  const double l0 = std::floor(std::log10(lo)), l1 = std::max(std::ceil(std::log10(hi)), l0 + 1);
+  const double x0 = levels.front(), x1 = std::max<double>(levels.back(), x0 + 1);
+  auto X = [&](double level) { return int(left + (level - x0) / (x1 - x0) * (right - left)); };
+  auto Y = [&](double ratio) { return int(bottom - (std::log10(ratio) - l0) / (l1 - l0) * (bottom - top)); };
+  const std::array<uint8_t, 3> grid{220, 220, 220}, ink{0, 0, 0};
+  for (double d = l0; d <= l1 + 1e-9; d += 1) {
+    cv.line(left, Y(std::pow(10, d)), right, Y(std::pow(10, d)), grid);
+    cv.text(4, Y(std::pow(10, d)) - 3, fmt("%g", std::pow(10, d)), ink);
+  }
+  for (uint32_t l : levels) {
+    cv.line(X(l), top, X(l), bottom, grid);
+    cv.text(X(l) - 5, bottom + 8, std::to_string(l), ink);
+  }
+  cv.line(left, bottom, right, bottom, ink);
+  cv.line(left, top, left, bottom, ink);
+  cv.text((left + right) / 2 - 15, bottom + 24, "level", ink);
+  cv.text(4, 4, "ratio to flat", ink);
+  const std::array<std::array<uint8_t, 3>, 5> colors{
+      {{0, 0, 0}, {214, 39, 40}, {255, 127, 14}, {31, 119, 180}, {44, 160, 44}}};
+  int legendY = top + 10;
+  for (Encoding e : somm::kAllEncodings)
+    for (uint32_t f : formats) {
+      const int dash = f == 4 ? 6 : 0;
+      int px = -1, py = -1;
+      for (const Row& r : rows) {
+        if (r.states != f || r.ratio(e) <= 0) continue;
+        const int x = X(r.level), y = Y(r.ratio(e));
+        // dfs and dfs-fast (rank and often hybrid) coincide: the wider line of the first shows around the
+        // second.
+        const int width = e == Encoding::Dfs || e == Encoding::Rank ? 5 : 2;
+        if (px >= 0) cv.line(px, py, x, y, colors[size_t(e)], width, dash);
+        for (int i = -2; i <= 2; ++i) cv.line(x - 2, y + i, x + 2, y + i, colors[size_t(e)]);
+        px = x, py = y;
+      }
+      cv.line(right + 15, legendY + 3, right + 45, legendY + 3, colors[size_t(e)], 2, dash);
+      cv.text(right + 52, legendY, std::string(somm::encodingName(e)) + ", " + std::to_string(f) + "-state",
+              ink);
+      legendY += 14;
+    }
+  std::vector<uint8_t> png;
+  auto sink = [](void* ctx, void* data, int size) {
+    auto* v = static_cast<std::vector<uint8_t>*>(ctx);
+    v->insert(v->end(), static_cast<uint8_t*>(data), static_cast<uint8_t*>(data) + size);
+  };
+  if (!stbi_write_png_to_func(sink, &png, cv.w, cv.h, 4, cv.px.data(), cv.w * 4))
+    return somm::makeError(somm::ErrorCode::IoError, path + ": PNG encoding failed");
+  return somm::writeFileAtomically(path, png);
+}
+
+int run(const Options& o) {
+  using namespace somm::cli;
+  std::vector<uint32_t> levels, formats;
+  if (!parseList(o.levels, levels, 0, somm::kMaxLevel)) {
+    printError("compare", "--levels '" + o.levels + "' must be a comma list of levels 0..12");
+    return kExitUsage;
+  }
+  if (!parseList(o.formats, formats, 2, 4) ||
+      std::find(formats.begin(), formats.end(), 3u) != formats.end()) {
+    printError("compare", "--formats '" + o.formats + "' must be a comma list of 2 and 4");
+    return kExitUsage;
+  }
+  somm::Scene scene;
+  if (o.scene.rfind("procedural:leaf-cards", 0) == 0) {
+    uint64_t cards = 64;
+    const std::string rest = o.scene.substr(std::string("procedural:leaf-cards").size());
+    if (!rest.empty() &&
+        (rest[0] != ':' || !parseUInt(rest.substr(1), cards) || cards == 0 || cards > 100000)) {
+      printError("compare",
+                 "scene '" + o.scene + "': expected procedural:leaf-cards[:N] with N in 1..100000");
+      return kExitUsage;
+    }
+    scene = somm::makeLeafCardScene(uint32_t(cards), 1);
+  } else {
+    auto s = somm::loadScene(o.scene);
+    if (!s) {
+      printError("compare", s.error().message);
+      return kExitFailure;
+    }
+    scene = std::move(*s);
+  }
+  std::vector<Row> rows;
+  for (uint32_t states : formats)
+    for (uint32_t level : levels) {
+      Row row;
+      row.level = level;
+      row.states = states;
+      somm::BakeOptions bo;
+      bo.level = level;
+      bo.format = states == 2 ? somm::Format::TwoState : somm::Format::FourState;
+      bo.threads = o.threads;
+      for (const somm::Geometry& g : scene.geometries) {
+        if (g.material >= scene.materials.size()) continue;
+        auto baked = somm::bakeGeometry(g, scene.materials[g.material], bo);
+        if (!baked) {
+          printError("compare", o.scene + ": geometry '" + g.name + "': " + baked.error().message);
+          return kExitFailure;
+        }
+        row.triangles += baked->array.indices.size();
+        row.maps += baked->array.descriptors.size();
+        for (Encoding e : somm::kAllEncodings) {
+          auto a = somm::EncodedArray::build(baked->array, e);
+          if (!a) {
+            printError("compare", o.scene + ": " + a.error().message);
+            return kExitFailure;
+          }
+          row.bytes[size_t(e)] += a->byteSize();
+        }
+      }
+      rows.push_back(row);
+    }
+
+  Output out;
+  if (o.json) {
+    nlohmann::json j;
+    j["scene"] = o.scene;
+    nlohmann::json rs = nlohmann::json::array();
+    for (const Row& r : rows) {
+      nlohmann::json x{
+          {"level", r.level}, {"format", r.states}, {"triangles", r.triangles}, {"micromaps", r.maps}};
+      for (Encoding e : somm::kAllEncodings)
+        x[somm::encodingName(e)] = {{"bytes", r.bytes[size_t(e)]}, {"ratio_to_flat", r.ratio(e)}};
+      rs.push_back(std::move(x));
+    }
+    j["rows"] = rs;
+    out.put(dumpJson(j));
+    out.put("\n");
+  } else {
+    out.put("scene " + o.scene +
+            ": bytes of each encoding (serialized array: header, indices, descriptors, data,\n"
+            "padding) and ratio to flat\n");
+    char buf[256];
+    std::snprintf(buf, sizeof buf, "%5s %6s %8s %12s", "level", "format", "maps", "flat");
+    out.put(buf);
+    for (Encoding e : somm::kAllEncodings)
+      if (e != Encoding::Flat) {
+        std::snprintf(buf, sizeof buf, " %21s", somm::encodingName(e));
+        out.put(buf);
+      }
+    out.put("\n");
+    for (const Row& r : rows) {
+      std::snprintf(buf, sizeof buf, "%5u %6u %8llu %12llu", r.level, r.states, (unsigned long long)r.maps,
+                    (unsigned long long)r.bytes[0]);
+      out.put(buf);
+      for (Encoding e : somm::kAllEncodings)
+        if (e != Encoding::Flat) {
+          std::snprintf(buf, sizeof buf, " %12llu (%6.4f)", (unsigned long long)r.bytes[size_t(e)],
+                        r.ratio(e));
+          out.put(buf);
+        }
+      out.put("\n");
+    }
+  }
+  out.flush();
+  if (!o.plot.empty()) {
+    auto st = writePlot(o.plot, rows, levels, formats);
+    if (!st) {
+      printError("compare", st.error().message);
+      return kExitFailure;
+    }
+  }
+  return kExitOk;
+}
+
+void setup(CLI::App& root) {
+  auto opts = std::make_shared<Options>();
+  CLI::App* cmd = root.add_subcommand("compare",
+                                      "Bake a scene at several levels and formats and print the memory of "
+                                      "every encoding (flat, dfs, dfs-fast, "
+                                      "rank, hybrid): exact bytes and ratio to flat. SCENE is a "
+                                      ".gltf/.glb/.obj file or procedural:leaf-cards[:N].");
+  cmd->add_option("scene", opts->scene, "scene file or procedural:leaf-cards[:N]")->required();
+  cmd->add_option("--levels", opts->levels, "comma list of subdivision levels 0..12 (default 4,6,8,10,12)");
+  cmd->add_option("--formats", opts->formats, "comma list of formats: 2 and/or 4 states (default 2,4)");
+  cmd->add_flag("--json", opts->json,
+                "print JSON: rows of {level, format, triangles, micromaps, <encoding>: {bytes, "
+                "ratio_to_flat}}");
+  cmd->add_option("--plot", opts->plot, "write a PNG plot of the ratio to flat against the level");
+  cmd->add_option("--threads", opts->threads, "bake threads (0 = all)");
+  cmd->callback([opts] { somm::cli::setExitCode(run(*opts)); });
+}
+
+const somm::cli::Registration reg("compare", &setup);
+
+}  // namespace

@@ -1,0 +1,149 @@
+#include "encodings.h"
+
+#include <lzma.h>
+#include <zstd.h>
+
+#include <algorithm>
+
+namespace somm::cli {
+
+uint32_t encodingSectionId(Encoding e) noexcept {
+  switch (e) {
+    case Encoding::Flat:
+      return sectionId("flat");
+    case Encoding::Dfs:
+      return sectionId("dfs ");
+    case Encoding::DfsFast:
+      return sectionId("dfsf");
+    case Encoding::Rank:
+      return sectionId("rank");
+    case Encoding::Hybrid:
+      return sectionId("hybr");
+  }
+  return 0;
+}
+
+std::optional<Encoding> sectionEncoding(uint32_t id) noexcept {
+  for (Encoding e : kAllEncodings)
+    if (e != Encoding::Flat && encodingSectionId(e) == id) return e;
+  return std::nullopt;
+}
+
+Status addEncodingSections(SommGeometry& g, std::span<const Encoding> encodings) {
+  for (Encoding e : encodings) {
+    if (e == Encoding::Flat) continue;
+    auto a = EncodedArray::build(g.flat, e);
+    if (!a) return a.error();
+    EncodedSection s{encodingSectionId(e), a->serialize()};
+    auto it =
+        std::find_if(g.extra.begin(), g.extra.end(), [&](const EncodedSection& x) { return x.id == s.id; });
+    if (it != g.extra.end())
+      *it = std::move(s);
+    else
+      g.extra.push_back(std::move(s));
+  }
+  return Ok{};
+}
+
+Result<EncodedArray> loadEncoding(const SommGeometry& g, uint32_t geometryIndex, Encoding e,
+                                  std::string_view what) {
+  const std::string where = std::string(what) + ": geometry " + std::to_string(geometryIndex);
+  if (e == Encoding::Flat) {
+    auto a = EncodedArray::build(g.flat, Encoding::Flat);
+    if (!a) return makeError(a.error().code, where + ": " + a.error().message);
+    return a;
+  }
+  for (const EncodedSection& s : g.extra) {
+    if (s.id != encodingSectionId(e)) continue;
+    auto a = EncodedArray::parse(s.bytes, where + " encoding '" + encodingName(e) + "'");
+    if (!a) return a;
+    if (a->encoding() != e || a->triangleCount() != g.flat.indices.size())
+      return makeError(ErrorCode::CorruptFile,
+                       where + ": encoding '" + encodingName(e) +
+                           "' does not match the geometry (encoding id or triangle count)");
+    return a;
+  }
+  return makeError(
+      ErrorCode::InvalidArgument,
+      where + " stores no '" + encodingName(e) + "' encoding (bake with --encoding " + encodingName(e) + ")");
+}
+
+uint64_t zstdBytes(std::span<const uint8_t> bytes) {
+  std::vector<uint8_t> out(ZSTD_compressBound(bytes.size()));
+  const size_t n = ZSTD_compress(out.data(), out.size(), bytes.data(), bytes.size(), 19);
+  return ZSTD_isError(n) ? 0 : n;
+}
+
+uint64_t xzBytes(std::span<const uint8_t> bytes) {
+  // xz -9 (preset 9, CRC64), with the dictionary no larger than the input: identical matches, far less
+  // memory.
+  lzma_options_lzma opt;
+  if (lzma_lzma_preset(&opt, 9)) return 0;
+  opt.dict_size = uint32_t(std::clamp<uint64_t>(bytes.size(), LZMA_DICT_SIZE_MIN, opt.dict_size));
+  lzma_filter filters[2] = {{LZMA_FILTER_LZMA2, &opt}, {LZMA_VLI_UNKNOWN, nullptr}};
+  std::vector<uint8_t> out(lzma_stream_buffer_bound(bytes.size()));
+  size_t pos = 0;
+  if (lzma_stream_buffer_encode(filters, LZMA_CHECK_CRC64, nullptr, bytes.data(), bytes.size(), out.data(),
+                                &pos, out.size()) != LZMA_OK)
+    return 0;
+  return pos;
+}
+
+void EncodingSizes::add(const EncodingSizes& o) {
+  flat += o.flat;
+  zstd += o.zstd;
+  xz += o.xz;
+  for (const auto& [e, b] : o.stored) {
+    auto it = std::find_if(stored.begin(), stored.end(), [&](const auto& p) { return p.first == e; });
+    if (it == stored.end())
+      stored.emplace_back(e, b);
+    else
+      it->second += b;
+  }
+  std::sort(stored.begin(), stored.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+}
+
+Result<EncodingSizes> encodingSizes(const SommGeometry& g, uint32_t geometryIndex, std::string_view what,
+                                    bool compressed) {
+  EncodingSizes s;
+  auto flat = loadEncoding(g, geometryIndex, Encoding::Flat, what);
+  if (!flat) return flat.error();
+  s.flat = flat->byteSize();
+  for (const EncodedSection& x : g.extra) {
+    const auto e = sectionEncoding(x.id);
+    if (!e) continue;
+    auto a = loadEncoding(g, geometryIndex, *e, what);
+    if (a)
+      s.stored.emplace_back(*e, a->byteSize());
+    else
+      s.invalid.emplace_back(*e, a.error().message);
+  }
+  std::sort(s.stored.begin(), s.stored.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  if (compressed) {
+    const std::vector<uint8_t> bytes = flat->serialize();
+    s.zstd = zstdBytes(bytes);
+    s.xz = xzBytes(bytes);
+  }
+  return s;
+}
+
+nlohmann::json encodingSizesJson(const EncodingSizes& s) {
+  auto entry = [&](uint64_t bytes) {
+    return nlohmann::json{{"bytes", bytes}, {"ratio_to_flat", s.flat ? double(bytes) / double(s.flat) : 0.0}};
+  };
+  nlohmann::json j = nlohmann::json::object();
+  j["flat"] = entry(s.flat);
+  for (const auto& [e, b] : s.stored) j[encodingName(e)] = entry(b);
+  for (const auto& [e, msg] : s.invalid) j[encodingName(e)] = {{"error", msg}};
+  if (s.zstd) {
+    j["zstd-19"] = entry(s.zstd);
+    j["zstd-19"]["random_access"] = false;
+  }
+  if (s.xz) {
+    j["xz-9"] = entry(s.xz);
+    j["xz-9"]["random_access"] = false;
+  }
+  return j;
+}
+
+}  // namespace somm::cli

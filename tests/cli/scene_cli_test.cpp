@@ -3,7 +3,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "cli/cli_helpers.h"
+#include "cli_util.h"
 
 namespace somm {
 namespace {
@@ -51,7 +51,7 @@ TEST(CliSceneInfo, TextAndErrors) {
   const RunResult missing = runSomm(dir, "scene-info " + shellQuote(dir / "nope.gltf"));
   EXPECT_EQ(missing.exitCode, 1);
   EXPECT_NE(missing.err.find("nope.gltf"), std::string::npos);
-  testing::writeText(dir / "bad.obj", "v 0 0 0\nf 1 2 3\n");
+  testing::writeFile(dir / "bad.obj", "v 0 0 0\nf 1 2 3\n");
   const RunResult bad = runSomm(dir, "scene-info " + shellQuote(dir / "bad.obj"));
   EXPECT_EQ(bad.exitCode, 2);
   EXPECT_NE(bad.err.find("bad.obj"), std::string::npos);
@@ -72,7 +72,7 @@ TEST(CliGenScene, LeafCardsAndQuad) {
   // Same seed → same bytes.
   ASSERT_EQ(runSomm(dir, "gen-scene leaf-cards --cards 25 --seed 3 -o " + shellQuote(dir / "d.glb")).exitCode,
             0);
-  EXPECT_EQ(testing::readText(dir / "c.glb"), testing::readText(dir / "d.glb"));
+  EXPECT_EQ(testing::readFile(dir / "c.glb"), testing::readFile(dir / "d.glb"));
 
   const RunResult q =
       runSomm(dir,

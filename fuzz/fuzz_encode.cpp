@@ -35,10 +35,11 @@ uint32_t lookupsFor(uint32_t level) {
   return level <= 6 ? somm::microTriangleCount(level) : 4096u;
 }
 
-// Index k of the lookups made on a map of `level`: all of them up to level 6, else a spread.
+// Index k of the lookups made on a map of `level`: all of them up to level 5, else a spread including the
+// last.
 uint32_t lookupIndex(uint32_t k, uint32_t level) {
   const uint32_t n = somm::microTriangleCount(level);
-  return level <= 6 ? k : uint32_t((uint64_t(k) * 2654435761u) % n);
+  return level <= 5 ? k : k == 0 ? n - 1 : uint32_t((uint64_t(k) * 2654435761u) % n);
 }
 
 template <Encoding E>
@@ -108,8 +109,8 @@ void modeValidateMap(const uint8_t* data, size_t size) {
   std::vector<uint8_t> blob(data, data + *r);
   blob.resize(size_t(*r) + somm::encode::kTailPadding, 0);
   blob.shrink_to_fit();
-  // Levels above 8: lookups only (out-of-bounds reads are what matters there; a full decode is slow).
-  const bool decode = level <= 8;
+  // Levels above 7: lookups only (out-of-bounds reads are what matters there; a full decode is slow).
+  const bool decode = level <= 7;
   const somm::Micromap m =
       decode ? somm::encode::decodeMap(blob.data(), kind, level, f) : somm::Micromap(0, f);
   if (decode && (m.level() != level || m.format() != f)) fail("decodeMap header");
@@ -140,9 +141,9 @@ void modeBuild(const uint8_t* data, size_t size) {
   somm::OmmArrayBuilder b;
   size_t p = 0;
   auto byte = [&]() -> uint8_t { return p < size ? data[p++] : 0; };
-  for (int t = 0; t < 24 && p < size; ++t) {
+  for (int t = 0; t < 6 && p < size; ++t) {
     const uint8_t head = byte();
-    const uint32_t level = head % 8;
+    const uint32_t level = head % 7;
     const somm::Format f = (head & 0x80) ? somm::Format::FourState : somm::Format::TwoState;
     somm::Micromap m(level, f, State((head >> 3) & 3));
     // Runs of states: (length byte, state) pairs, so that trees collapse in interesting ways.

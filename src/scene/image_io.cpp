@@ -7,6 +7,7 @@
 #include <climits>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <memory>
@@ -49,9 +50,12 @@ std::string pngChunkProblem(const uint8_t* p, size_t n) {
 // tables (a heap buffer overflow) when a DHT segment's 16 counts add up to more; refuse such files first. Walks the
 // marker segments like stb does (entropy-coded data byte by byte), so every DHT stb would read is seen.
 bool jpegHuffmanTablesValid(const uint8_t* p, size_t n) {
-  if (n < 2 || p[0] != 0xFF || p[1] != 0xD8) return true;
+  // stb accepts any number of 0xFF fill bytes before SOI (FF D8).
+  size_t i = 0;
+  while (i < n && p[i] == 0xFF) ++i;
+  if (i == 0 || i >= n || p[i] != 0xD8) return true;
+  ++i;
   auto at = [&](size_t k) -> uint32_t { return k < n ? p[k] : 0u; };  // stb reads zeros past the end
-  size_t i = 2;
   while (i + 1 < n) {
     if (p[i] != 0xFF || p[i + 1] == 0xFF) {  // entropy-coded data, or a fill byte before a marker
       ++i;
@@ -133,9 +137,20 @@ Result<RawImage> decodeImage(const uint8_t* data, size_t size) {
 }
 
 Result<RawImage> readImageFile(const std::string& path) {
+  // Only regular files: a directory made the read below throw (std::terminate, found by fuzz_obj with `map_Kd /`),
+  // and a device such as /dev/zero would never end.
+  std::error_code ec;
+  const auto st = std::filesystem::status(path, ec);
+  if (!ec && std::filesystem::exists(st) && !std::filesystem::is_regular_file(st))
+    return makeError(ErrorCode::IoError, "not a regular file");
   std::ifstream f(path, std::ios::binary);
   if (!f) return makeError(ErrorCode::IoError, "cannot open file");
-  std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  std::vector<uint8_t> bytes;
+  try {
+    bytes.assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+  } catch (const std::exception&) {
+    return makeError(ErrorCode::IoError, "cannot read file");
+  }
   if (f.bad()) return makeError(ErrorCode::IoError, "cannot read file");
   return decodeImage(bytes.data(), bytes.size());
 }

@@ -212,6 +212,22 @@ TEST_F(BadSomm, ExistingOutputIsNotClobbered) {
   EXPECT_EQ(testing::listDir(out), (std::set<std::string>{"geometry-0", "geometry-0/data.bin"}));
 }
 
+// `somm view` renders a PNG from a .somm file and its scene: a corrupt file writes nothing, keeps an existing
+// image.
+TEST_F(BadSomm, ViewOfCorruptFileWritesNothing) {
+  if (!testing::hasCommand("view")) GTEST_SKIP() << "this build has no `somm view`";
+  std::string b = bytes_;
+  b[b.size() / 2] ^= 0x04;
+  const std::string p = write("bad.somm", b);
+  const std::string png = dir_.file("view.png");
+  testing::writeFile(png, "precious");
+  const auto before = testing::listDir(dir_.path().string());
+  const GuardedResult r = runGuarded("view " + quote(p) + " --geometry 0 -o " + quote(png));
+  expectRejected(r, 1, {p + ": "}, "view of a corrupt file");
+  EXPECT_EQ(testing::readFile(png), "precious");
+  EXPECT_EQ(testing::listDir(dir_.path().string()), before);
+}
+
 TEST_F(BadSomm, QueryOptionsOutOfRange) {
   for (const std::string& opts :
        {std::string("--geometry 3 --triangle 0"), std::string("--geometry 0 --triangle 12"),

@@ -329,7 +329,8 @@ void setup(CLI::App& root) {
                   "2-state: what unknown micro-triangles become (default majority)")
       ->check(CLI::IsMember({"opaque", "transparent", "majority"}));
   cmd->add_option("--max-bytes", o->maxBytes,
-                  "lower the highest levels until each geometry's data fits in B bytes");
+                  "lower the highest levels until each geometry's data fits in B bytes")
+      ->check(CLI::NonNegativeNumber);  // CLI11 would wrap "-5" into 2^64 - 5
   cmd->add_flag("--estimate", o->estimate,
                 "print the data size from the levels alone, bake nothing, write nothing");
   cmd->add_option("--threads,-j", o->threads, "worker threads (default: all)");

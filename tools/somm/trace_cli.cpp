@@ -27,11 +27,11 @@ void addTraceOptions(CLI::App* cmd, TraceCliOptions& o) {
       ->check(CLI::Range(0u, 12u));
   cmd->add_option("--texels-per-microtri", o.texelsPerMicroTri,
                   "bake: adaptive level target (texels per micro-triangle)")
-      ->check(CLI::Range(0.0f, 1e9f));
+      ->check(CLI::Range(0.0f, 1e9f) & somm::cli::NotNan);
   cmd->add_option("--filter", o.filter, "bake and trace: auto (each material's sampler), nearest or linear")
       ->check(CLI::IsMember({"auto", "nearest", "linear"}));
   cmd->add_option("--cutoff", o.cutoff, "bake and trace: alpha cutoff for every material")
-      ->check(CLI::Range(0.0f, 1.0f));
+      ->check(CLI::Range(0.0f, 1.0f) & somm::cli::NotNan);
   cmd->add_flag("--blend-as-mask", o.blendAsMask, "treat glTF BLEND materials as MASK");
   cmd->add_flag("--json", o.json, "print JSON instead of text");
 }

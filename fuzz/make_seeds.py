@@ -57,3 +57,121 @@ put("fuzz_micromap", "dedupe", micromap_seed([(3, 1, 0, [(5, 1), (9, 3)])] * 3 +
 put("fuzz_micromap", "random", micromap_seed([(rng.randrange(7), rng.randrange(2), rng.randrange(4),
                                                [(rng.randrange(4096), rng.randrange(4)) for _ in range(10)])
                                               for _ in range(12)]))
+
+# ---- scene inputs (the fuzz targets' scratch directory also holds t.png, a 4x4 RGBA PNG, and b.bin, 64 bytes) ----
+import base64
+import json
+import zlib
+
+
+def png(w, h, color_type, depth, pixel):
+    def chunk(t, d):
+        return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xFFFFFFFF)
+    raw = b"".join(b"\0" + b"".join(pixel(x, y) for x in range(w)) for y in range(h))
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, depth, color_type, 0, 0, 0)) +
+            chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b""))
+
+
+put("fuzz_image", "rgba16.png", png(3, 3, 6, 16, lambda x, y: struct.pack(">HHHH", x * 20000, y * 20000, 7, x * y * 9000)))
+put("fuzz_image", "rgba8.png", png(4, 4, 6, 8, lambda x, y: bytes([x * 60, y * 60, 128, 255 if (x + y) % 2 else 0])))
+put("fuzz_image", "rgb8.png", png(5, 2, 2, 8, lambda x, y: bytes([x * 50, y * 100, 3])))
+put("fuzz_image", "huge_claim.png", png(1, 1, 6, 8, lambda x, y: b"\1\2\3\4").replace(
+    struct.pack(">II", 1, 1), struct.pack(">II", 30000, 30000), 1))
+
+# OBJ (+ NUL + MTL).
+quad_obj = """# quad with a masked material
+mtllib m.mtl
+o leaf
+v 0 0 0
+v 1 0 0
+v 1 1 0
+v 0 1 0
+vt 0 0
+vt 1 0
+vt 1 1
+vt 0 1
+vn 0 0 1
+usemtl leafmat
+f 1/1/1 2/2/1 3/3/1 4/4/1
+usemtl bark
+f -4/-4 -3/-3 -2/-2
+g second
+usemtl leafmat
+f 1/1 3/3 4/4
+"""
+mtl = """newmtl leafmat
+Kd 1 1 1
+map_d -imfchan m t.png
+newmtl bark
+map_Kd -clamp on t.png
+"""
+put("fuzz_obj", "quad", quad_obj + "\0" + mtl)
+put("fuzz_obj", "no_mtl", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\nl 1 2\np 1\n")
+put("fuzz_obj", "missing_texture", quad_obj + "\0" + "newmtl leafmat\nmap_d missing.png\nnewmtl bark\nmap_Kd t.png\n")
+put("fuzz_obj", "bad_values", "v nan 0 0\nv inf 1 0\nv 0 1 1e40\nvt nan inf\nvt 0 0\nvt 1 1\nf 1/1 2/2 3/3\nf 1/5 2/2 9/3\n")
+
+
+def gltf_doc(buffer_uri, image):
+    pos = struct.pack("<9f", 0, 0, 0, 1, 0, 0, 0, 1, 0)
+    uv = struct.pack("<6f", 0, 0, 1, 0, 0, 1)
+    idx = struct.pack("<3H", 0, 1, 2) + b"\0\0"
+    data = pos + uv + idx
+    doc = {
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0, "translation": [1, 2, 3], "children": [1]}, {"mesh": 0, "scale": [2, 2, 2]}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": 2, "material": 0},
+                                   {"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "mode": 1}]}],
+        "materials": [{"alphaMode": "MASK", "alphaCutoff": 0.4,
+                       "pbrMetallicRoughness": {"baseColorTexture": {"index": 0, "texCoord": 0},
+                                                "baseColorFactor": [1, 1, 1, 0.9]}}],
+        "textures": [{"source": 0, "sampler": 0}],
+        "samplers": [{"magFilter": 9728, "wrapS": 33071, "wrapT": 33648}],
+        "images": [image],
+        "buffers": [{"byteLength": len(data), "uri": buffer_uri or
+                     "data:application/octet-stream;base64," + base64.b64encode(data).decode()}],
+        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": len(pos)},
+                        {"buffer": 0, "byteOffset": len(pos), "byteLength": len(uv)},
+                        {"buffer": 0, "byteOffset": len(pos) + len(uv), "byteLength": 6}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                       "min": [0, 0, 0], "max": [1, 1, 0]},
+                      {"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC2"},
+                      {"bufferView": 2, "componentType": 5123, "count": 3, "type": "SCALAR"}],
+    }
+    return doc, data
+
+
+tiny_png = png(4, 4, 6, 8, lambda x, y: bytes([x * 60, y * 60, 128, 255 if (x + y) % 2 else 0]))
+doc, _ = gltf_doc(None, {"uri": "t.png"})
+put("fuzz_gltf", "datauri_external_image", b"\0" + json.dumps(doc).encode())
+doc, _ = gltf_doc(None, {"uri": "data:image/png;base64," + base64.b64encode(tiny_png).decode()})
+put("fuzz_gltf", "datauri_image", b"\0" + json.dumps(doc).encode())
+doc, _ = gltf_doc("b.bin", {"uri": "missing.png"})
+put("fuzz_gltf", "external_buffer_missing_image", b"\0" + json.dumps(doc).encode())
+# GLB: the buffer and the image in the BIN chunk.
+doc, data = gltf_doc(None, {"bufferView": 3, "mimeType": "image/png"})
+image_at = len(data)
+data = data + tiny_png
+data += b"\0" * (-len(data) % 4)
+doc["buffers"] = [{"byteLength": len(data)}]
+doc["bufferViews"].append({"buffer": 0, "byteOffset": image_at, "byteLength": len(tiny_png)})
+js = json.dumps(doc).encode()
+js += b" " * (-len(js) % 4)
+glb = (struct.pack("<III", 0x46546C67, 2, 12 + 8 + len(js) + 8 + len(data)) + struct.pack("<II", len(js), 0x4E4F534A) +
+       js + struct.pack("<II", len(data), 0x004E4942) + data)
+put("fuzz_gltf", "glb", b"\1" + glb)
+# The bundled oak tree's glTF JSON (its .bin is not in the scratch directory: exercises the error paths).
+oak = os.path.join(os.path.dirname(ROOT), "..", "data", "oak-tree", "oaktree.gltf")
+if os.path.exists(oak):
+    put("fuzz_gltf", "oaktree_json", b"\0" + open(oak, "rb").read())
+
+# fuzz_encode: mode byte (0 parse an EncodedArray, 1 validate one map blob, 2 build from micromap scripts). Serialised
+# arrays for mode 0 are written by fuzz/make_file_seeds.sh from a built tree.
+for k in range(4):
+    put("fuzz_encode", f"build_{k}", bytes([2]) + bytes(rng.randrange(256) for _ in range(60 + 40 * k)))
+put("fuzz_encode", "build_uniform", bytes([2]) + bytes([3, 0, 0x83, 0, 0x8B, 1, 200, 1, 0, 5, 2, 7, 3]))
+for kind in range(3):
+    for level in (0, 1, 3, 5):
+        put("fuzz_encode", f"map_k{kind}_l{level}", bytes([1, kind | (level << 2), level & 1]) +
+            bytes(rng.randrange(256) for _ in range(8 + 4 ** level // 2)))

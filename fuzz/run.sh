@@ -20,11 +20,14 @@ for t in "${targets[@]}"; do
   log="$build/fuzz-logs/$t.log"
   # -timeout: one input taking > 10 s is a hang; -rss_limit_mb / -malloc_limit_mb: a hostile input must not make us
   # allocate more than this (see docs/hardening.md, memory bounds).
+  # Per-target flags (e.g. a tighter -malloc_limit_mb for readers that promise bounded allocation): fuzz/<t>.options.
+  extra=()
+  [ -f "fuzz/$t.options" ] && read -r -a extra <"fuzz/$t.options"
   start=$(date +%s)
   ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=0 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
     timeout -k 10 $((seconds + 120)) "$build/fuzz/$t" "$work" "fuzz/corpus/$t" -max_total_time="$seconds" \
     -timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=1024 -print_final_stats=1 \
-    -artifact_prefix="$build/crashes/$t-" >"$log" 2>&1
+    -artifact_prefix="$build/crashes/$t-" "${extra[@]}" >"$log" 2>&1
   rc=$?
   end=$(date +%s)
   execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$')

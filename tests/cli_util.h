@@ -32,6 +32,7 @@ class TempDir {
   }
   const std::filesystem::path& path() const { return path_; }
   std::string file(const std::string& name) const { return (path_ / name).string(); }
+  std::string operator/(const std::string& name) const { return file(name); }
 
  private:
   std::filesystem::path path_;
@@ -62,6 +63,17 @@ inline RunResult runSomm(const std::string& args, const std::string& stdinData =
   r.out = readFile(out);
   r.err = readFile(err);
   return r;
+}
+
+inline std::string shellQuote(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+// Runs `somm <args>` with stdin read from the file `stdinPath` (empty: no input).
+inline RunResult runSomm(const TempDir&, const std::string& args, const std::string& stdinPath = "") {
+  return runSomm(args, stdinPath.empty() ? std::string() : readFile(stdinPath));
 }
 
 }  // namespace somm::testing

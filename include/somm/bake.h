@@ -33,7 +33,8 @@ struct BakeOptions {
   std::optional<float> cutoff;                // overrides the material's alpha cutoff
   uint64_t maxBytes = 0;  // 0 = no limit; else lower the levels of the largest maps until the data fits
   uint32_t threads = 0;   // 0 = all hardware threads
-  std::function<void(double)> progress;  // called with the fraction done (0..1), from the calling thread
+  // Fraction done, 0..1, non-decreasing, ends at 1; called on the calling thread (the library never prints).
+  std::function<void(double)> progress;
 };
 
 struct BakeStats {
@@ -43,10 +44,11 @@ struct BakeStats {
   uint64_t dataBytes = 0;                  // size of the data buffer
   uint64_t microTriangles = 0;             // sum over triangles of 4^level (special-index triangles included)
   uint64_t unknownMicroTriangles = 0;      // micro-triangles the conservative test left unknown (before any
-                                       // 2-state demotion)
-  uint64_t nonFiniteUvTriangles = 0;    // triangles with NaN/inf UVs: baked as whole-triangle unknown
-  uint32_t minLevel = 0, maxLevel = 0;  // range of the levels chosen (over all triangles)
-  uint32_t levelCap = kMaxLevel;        // the global cap --max-bytes applied (kMaxLevel = none)
+                                           // 2-state demotion)
+  uint64_t nonFiniteUvTriangles = 0;       // triangles with NaN/inf UVs (or texel coordinates >= 1e14 in
+                                           // magnitude): baked as whole-triangle unknown
+  uint32_t minLevel = 0, maxLevel = 0;     // range of the levels chosen (over all triangles)
+  uint32_t levelCap = kMaxLevel;           // the global cap --max-bytes applied (kMaxLevel = none)
   double seconds = 0;
 
   double unknownFraction() const noexcept {
@@ -122,7 +124,9 @@ uint32_t adaptiveLevel(std::array<float, 2> uv0, std::array<float, 2> uv1, std::
 Result<BakedGeometry> bakeGeometry(const Geometry& geometry, const Material& material,
                                    const BakeOptions& options);
 
-// Same, with a prepared mask for the material (nullptr when the material has no alpha texture).
+// Same, with a prepared mask for the material (nullptr when the material has no alpha texture). The mask's
+// sampler and cutoff are used as they are: build it with the effective filter / cutoff (options.filter /
+// cutoff are not applied).
 Result<BakedGeometry> bakeGeometry(const Geometry& geometry, const Material& material, const AlphaMask* mask,
                                    const BakeOptions& options);
 

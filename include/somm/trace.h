@@ -24,8 +24,7 @@
 
 namespace somm {
 
-// ---- methods
-// ------------------------------------------------------------------------------------------------------
+// ---- methods ----
 
 enum class MethodKind : uint8_t {
   Opaque,   // no alpha test: the lower bound, wrong pixels
@@ -48,8 +47,7 @@ Result<MethodSpec> parseMethod(std::string_view name);
 // The encodings this build can trace (flat plus whatever compressed encodings are compiled in).
 std::vector<std::string> traceEncodings();
 
-// ---- workload
-// ------------------------------------------------------------------------------------------------------
+// ---- workload ----
 
 struct RenderSettings {
   uint32_t width = 640, height = 480;
@@ -90,8 +88,7 @@ double percentPixelsDiffering(const Image& a, const Image& b) noexcept;
 // Writes an 8-bit RGBA PNG atomically (temp file + rename).
 Status writePng(const std::string& path, const Image& image);
 
-// ---- the world and the tracers
-// --------------------------------------------------------------------------------------
+// ---- the world and the tracers ----
 
 struct Bounds {
   std::array<float, 3> lower{0, 0, 0}, upper{0, 0, 0};
@@ -158,8 +155,17 @@ Result<std::unique_ptr<Tracer>> makeFlatOmmTracer(std::shared_ptr<const TraceWor
 Result<std::unique_ptr<Tracer>> makeStateOverlayTracer(std::shared_ptr<const TraceWorld> world,
                                                        std::shared_ptr<const OmmArrays> arrays);
 
-// ---- conservative classification (bitmask build, and a simple stand-alone micromap bake)
-// ---------------------------
+// Everything a method may need, by format. Methods whose inputs are missing fail with a message.
+struct MicromapSet {
+  std::shared_ptr<const OmmArrays> flat2, flat4;  // per geometry, 2-state and 4-state
+  uint32_t bitmaskLevel = 6;                      // grid 2^level × 2^level (use the micromaps' level)
+};
+
+// Any method by spec (state-overlay uses flat4).
+Result<std::unique_ptr<Tracer>> makeTracer(std::shared_ptr<const TraceWorld> world, const MethodSpec& method,
+                                           const MicromapSet& micromaps);
+
+// ---- conservative classification (bitmask build, and a simple stand-alone micromap bake) ----
 
 // Classifies the region of a triangle given by barycentric points (u, v) (the closed convex hull of `count`
 // points, count <= 8) against the material's alpha test: Opaque / Transparent only if every hit a ray tracer

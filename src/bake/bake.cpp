@@ -24,6 +24,10 @@ struct Interval {
 // overlapping.
 int wrapInterval(int64_t a, int64_t b, uint32_t size, Wrap w, Interval out[4]) noexcept {
   const int64_t n = int64_t(size);
+  if (a >= 0 && b < n) {  // inside the texture: every wrap mode is the identity
+    out[0] = {uint32_t(a), uint32_t(b)};
+    return 1;
+  }
   switch (w) {
     case Wrap::ClampToEdge:
       out[0] = {uint32_t(std::clamp<int64_t>(a, 0, n - 1)), uint32_t(std::clamp<int64_t>(b, 0, n - 1))};
@@ -68,6 +72,18 @@ int wrapInterval(int64_t a, int64_t b, uint32_t size, Wrap w, Interval out[4]) n
   return 1;
 }
 
+// texelFloor without the libm call (std::floor is not inlined without SSE4.1).
+inline int64_t cellFloor(double x) noexcept {
+  if (!(std::fabs(x) < 1e15)) return texelFloor(x);
+  const int64_t i = int64_t(x);
+  return i - (double(i) > x ? 1 : 0);
+}
+
+// wrapTexel with a fast path for indices inside the texture.
+inline uint32_t wrapFast(int64_t i, uint32_t size, Wrap w) noexcept {
+  return i >= 0 && i < int64_t(size) ? uint32_t(i) : wrapTexel(i, size, w);
+}
+
 constexpr unsigned kPass = 1, kFail = 2, kMixed = 3;
 
 inline double min3(const double v[3]) {
@@ -82,6 +98,13 @@ uint8_t fillByte(Format f, State s) {
   const uint8_t v = uint8_t(s) & 3u;
   return uint8_t(v | (v << 2) | (v << 4) | (v << 6));
 }
+
+// Linear filter: regions touching at most this many cells get the exact bilinear bound (leaves / inner
+// nodes).
+constexpr int64_t kLeafCells = 1024, kNodeCells = 4;
+
+// Texel coordinates at or beyond this magnitude make a triangle unknown (texelFloor clamps at 1e15).
+constexpr double kMaxTexelCoord = 1e14;
 
 // Rows of cells beyond which a region is declared mixed without enumerating (still conservative).
 constexpr int64_t kMaxRows = int64_t(1) << 22;
@@ -104,39 +127,185 @@ struct TriangleClassifier {
     return (c.pass > 0 ? kPass : 0u) | (c.pass < c.total ? kFail : 0u);
   }
 
-  // kPass / kFail / kMixed for the closed triangle (X, Y) grown by the margin (Minkowski sum with a square).
-  unsigned region(const double X[3], const double Y[3]) const noexcept {
+  // The x-extent [xl, xr] of the triangle within the horizontal slab [ya, yb]; false when they do not meet.
+  static bool slabExtent(const double X[3], const double Y[3], double ya, double yb, double& xl,
+                         double& xr) noexcept {
+    xl = std::numeric_limits<double>::infinity();
+    xr = -xl;
+    for (int k = 0; k < 3; ++k) {
+      if (Y[k] >= ya && Y[k] <= yb) {
+        xl = std::min(xl, X[k]);
+        xr = std::max(xr, X[k]);
+      }
+      const int k1 = k == 2 ? 0 : k + 1;
+      const double dy = Y[k1] - Y[k];
+      for (const double c : {ya, yb}) {
+        if ((Y[k] < c && Y[k1] > c) || (Y[k] > c && Y[k1] < c)) {
+          const double x = X[k] + (c - Y[k]) / dy * (X[k1] - X[k]);
+          xl = std::min(xl, x);
+          xr = std::max(xr, x);
+        }
+      }
+    }
+    return xl <= xr;
+  }
+
+  static unsigned decide(double lo, double hi, float cutoff, double tol) noexcept {
+    if (lo >= double(cutoff) + tol) return kPass;
+    if (hi < double(cutoff) - tol) return kFail;
+    return kMixed;  // also NaN
+  }
+
+  // Range of f = A + Bx + Cy + Dxy over the convex polygon (px, py): its vertices and the stationary points
+  // of its restriction to each edge.
+  static void polygonRange(double A, double B, double C, double D, const double* px, const double* py, int n,
+                           double& lo, double& hi) noexcept {
+    auto f = [&](double x, double y) { return A + B * x + C * y + D * x * y; };
+    lo = std::numeric_limits<double>::infinity();
+    hi = -lo;
+    for (int q = 0; q < n; ++q) {
+      const double v = f(px[q], py[q]);
+      lo = std::min(lo, v);
+      hi = std::max(hi, v);
+      const int q1 = q + 1 == n ? 0 : q + 1;
+      const double ex = px[q1] - px[q], ey = py[q1] - py[q];
+      // f along the edge: v + c1·t + c2·t², stationary at t = −c1 / (2·c2) with value v − c1² / (4·c2).
+      const double c2 = D * ex * ey, c1 = B * ex + C * ey + D * (px[q] * ey + py[q] * ex);
+      if ((c1 < 0) != (c2 < 0) && std::fabs(c1) < 2 * std::fabs(c2)) {
+        const double w = v - c1 * c1 / (4 * c2);
+        lo = std::min(lo, w);
+        hi = std::max(hi, w);
+      }
+    }
+    if (std::isnan(lo) || std::isnan(hi)) lo = hi = std::numeric_limits<double>::quiet_NaN();
+  }
+
+  // The exact-per-cell bound: T (cell-local) clipped to [−m, 1 + m]² (Sutherland–Hodgman), then polygonRange.
+  unsigned clippedCell(double A, double B, double C, double D, const double tx[3], const double ty[3],
+                       double grow, float cutoff, double tol) const noexcept {
     const double m = margin;
-    const int64_t i0 = texelFloor(min3(X) - m), i1 = texelFloor(max3(X) + m);
-    const int64_t j0 = texelFloor(min3(Y) - m), j1 = texelFloor(max3(Y) + m);
+    double buf[2][2][48];  // each clip at most doubles the count (3 · 2^4)
+    double *px = buf[0][0], *py = buf[0][1], *qx = buf[1][0], *qy = buf[1][1];
+    int n = 3;
+    std::copy(tx, tx + 3, px);
+    std::copy(ty, ty + 3, py);
+    for (int side = 0; side < 4 && n > 0; ++side) {
+      const bool isX = side < 2;
+      const double c = (side & 1) ? 1 + m : -m;
+      const double sign = (side & 1) ? -1.0 : 1.0;  // inside: sign · (coord − c) >= 0
+      int o = 0;
+      for (int q = 0; q < n; ++q) {
+        const int q1 = q + 1 == n ? 0 : q + 1;
+        const double d0 = sign * ((isX ? px[q] : py[q]) - c), d1 = sign * ((isX ? px[q1] : py[q1]) - c);
+        if (d0 >= 0) {
+          qx[o] = px[q];
+          qy[o++] = py[q];
+        }
+        if ((d0 >= 0) != (d1 >= 0)) {
+          const double u = d0 / (d0 - d1);
+          qx[o] = isX ? c : px[q] + u * (px[q1] - px[q]);
+          qy[o++] = isX ? py[q] + u * (py[q1] - py[q]) : c;
+        }
+      }
+      n = o;
+      std::swap(px, qx);
+      std::swap(py, qy);
+    }
+    if (n == 0) return 0;  // T does not come within m of the cell
+    double lo, hi;
+    polygonRange(A, B, C, D, px, py, n, lo, hi);
+    return decide(lo - grow, hi + grow, cutoff, tol);
+  }
+
+  // kPass / kFail / kMixed for the closed triangle (X, Y) grown by the margin (Minkowski sum with a square):
+  // the cells it touches all pass / all fail / neither. `cellLimit`: for the linear filter, regions touching
+  // at most this many cells get the exact bilinear bound (bilinearCells) instead of the four-corner bound.
+  unsigned region(const double X[3], const double Y[3], int64_t cellLimit) const noexcept {
+    const double m = margin;
+    const int64_t i0 = cellFloor(min3(X) - m), i1 = cellFloor(max3(X) + m);
+    const int64_t j0 = cellFloor(min3(Y) - m), j1 = cellFloor(max3(Y) + m);
     const unsigned box = rect(i0, i1, j0, j1);
-    if (box != kMixed || j0 == j1) return box;
+    if (box != kMixed) return box;
+    if (ext && i1 - i0 < cellLimit && j1 - j0 < cellLimit && (i1 - i0 + 1) * (j1 - j0 + 1) <= cellLimit)
+      return bilinearCells(X, Y, j0, j1);
+    if (j0 == j1) return box;
     if (j1 - j0 > kMaxRows) return kMixed;
     // Exact: per row of cells, the x-extent of the grown triangle within the row.
     unsigned acc = 0;
     for (int64_t j = j0; j <= j1; ++j) {
-      const double ya = double(j) - m, yb = double(j + 1) + m;
-      double xl = std::numeric_limits<double>::infinity(), xr = -xl;
-      for (int k = 0; k < 3; ++k) {
-        if (Y[k] >= ya && Y[k] <= yb) {
-          xl = std::min(xl, X[k]);
-          xr = std::max(xr, X[k]);
-        }
-        const int k1 = k == 2 ? 0 : k + 1;
-        const double dy = Y[k1] - Y[k];
-        for (const double c : {ya, yb}) {
-          if ((Y[k] < c && Y[k1] > c) || (Y[k] > c && Y[k1] < c)) {
-            const double x = X[k] + (c - Y[k]) / dy * (X[k1] - X[k]);
-            xl = std::min(xl, x);
-            xr = std::max(xr, x);
-          }
-        }
-      }
-      if (!(xl <= xr)) continue;
-      acc |= rect(texelFloor(xl - m), texelFloor(xr + m), j, j);
+      double xl, xr;
+      if (!slabExtent(X, Y, double(j) - m, double(j + 1) + m, xl, xr)) continue;
+      acc |= rect(cellFloor(xl - m), cellFloor(xr + m), j, j);
       if (acc == kMixed) return kMixed;
     }
     return acc;
+  }
+
+  // Linear filter, exact per cell: for every cell the grown triangle touches (row runs as in region()), a
+  // cell whose four corners agree is decided by them; otherwise the bilinear surface f of the cell is bounded
+  // over the part of the grown triangle inside the cell. That part is within distance m (per axis) of T ∩
+  // (cell ⊕ square m): clip T to the cell grown by m, bound f (extended as the same polynomial) there — a
+  // bilinear function takes its extremes over a convex polygon on the boundary, at a vertex or where its
+  // restriction to an edge (a quadratic) is stationary — and widen by m times the gradient bound. Values
+  // within 1e-6 of the cutoff stay unknown (sampleAlpha's rounding).
+  unsigned bilinearCells(const double X[3], const double Y[3], int64_t j0, int64_t j1) const noexcept {
+    const double m = margin;
+    const AlphaTexture& t = *mask.texture();
+    const Sampler& smp = mask.sampler();
+    const float cutoff = mask.cutoff();
+    const double tol = 1e-6 * std::max(1.0, std::fabs(double(cutoff)));
+    unsigned acc = 0;
+    for (int64_t j = j0; j <= j1; ++j) {
+      double xl, xr;
+      if (!slabExtent(X, Y, double(j) - m, double(j + 1) + m, xl, xr)) continue;
+      const uint32_t ya = wrapFast(j, t.height, smp.wrapT), yb = wrapFast(j + 1, t.height, smp.wrapT);
+      const int64_t a = cellFloor(xl - m), b = cellFloor(xr + m);
+      for (int64_t i = a; i <= b; ++i) {
+        const uint32_t xa = wrapFast(i, t.width, smp.wrapS), xb = wrapFast(i + 1, t.width, smp.wrapS);
+        const float c00 = t.at(xa, ya), c10 = t.at(xb, ya), c01 = t.at(xa, yb), c11 = t.at(xb, yb);
+        const int passes = alphaTestPasses(c00, cutoff) + alphaTestPasses(c10, cutoff) +
+                           alphaTestPasses(c01, cutoff) + alphaTestPasses(c11, cutoff);
+        if (passes == 4 || passes == 0) {
+          acc |= passes ? kPass : kFail;
+          if (acc == kMixed) return kMixed;
+          continue;
+        }
+        const double A = c00, B = double(c10) - A, C = double(c01) - A, D = double(c11) - c10 - c01 + A;
+        const double grow = m * (std::fabs(B) + std::fabs(C) + 2 * std::fabs(D) * (1 + 2 * m));
+        double px[3], py[3];
+        for (int k = 0; k < 3; ++k) {
+          px[k] = X[k] - double(i);
+          py[k] = Y[k] - double(j);
+        }
+        // Cheap first: the cell's polynomial over the whole of T (a superset of T's part near the cell),
+        // bounded by its degree-2 Bernstein coefficients on T: the vertex values and, per edge, (f_i + f_j)/2
+        // − D·Δx·Δy/2.
+        double fv[3], lo, hi;
+        for (int k = 0; k < 3; ++k) fv[k] = A + B * px[k] + C * py[k] + D * px[k] * py[k];
+        lo = hi = fv[0];
+        for (int k = 0; k < 3; ++k) {
+          const int k1 = k == 2 ? 0 : k + 1;
+          const double e = (fv[k] + fv[k1]) * 0.5 - D * (px[k1] - px[k]) * (py[k1] - py[k]) * 0.5;
+          lo = std::min(lo, std::min(fv[k], e));
+          hi = std::max(hi, std::max(fv[k], e));
+        }
+        unsigned cls = decide(lo - grow, hi + grow, cutoff, tol);
+        if (cls == kMixed) {
+          // Vertices of T inside this cell are points of the region where the blend is f itself: if they
+          // (with what other cells showed) see both classes, the region is mixed — no need for the exact
+          // bound.
+          unsigned seen = acc;
+          for (int k = 0; k < 3; ++k)
+            if (px[k] >= 0 && px[k] <= 1 && py[k] >= 0 && py[k] <= 1)
+              seen |= fv[k] >= double(cutoff) ? kPass : kFail;
+          if (seen == kMixed) return kMixed;
+        }
+        if (cls == kMixed) cls = clippedCell(A, B, C, D, px, py, grow, cutoff, tol);
+        acc |= cls;
+        if (acc == kMixed) return kMixed;
+      }
+    }
+    return acc ? acc : kMixed;
   }
 
   void fill(uint32_t start, uint32_t count, State s) noexcept {
@@ -148,10 +317,19 @@ struct TriangleClassifier {
     }
   }
 
+  // The alpha test at cell-space point (x, y), evaluated like sampleAlpha but directly in cell space (used
+  // only for the majority of unknown micro-triangles, which needs no exactness).
   bool passesAt(double x, double y) const noexcept {
     const AlphaTexture& t = *mask.texture();
-    const float s = float((x + shift) / double(t.width)), u = float((y + shift) / double(t.height));
-    return alphaTestPasses(sampleAlpha(t, mask.sampler(), s, u), mask.cutoff());
+    const Sampler& smp = mask.sampler();
+    const int64_t i = cellFloor(x), j = cellFloor(y);
+    const uint32_t xa = wrapFast(i, t.width, smp.wrapS), ya = wrapFast(j, t.height, smp.wrapT);
+    if (shift == 0) return alphaTestPasses(t.at(xa, ya), mask.cutoff());
+    const uint32_t xb = wrapFast(i + 1, t.width, smp.wrapS), yb = wrapFast(j + 1, t.height, smp.wrapT);
+    const double fx = x - double(i), fy = y - double(j);
+    const double top = double(t.at(xa, ya)) * (1 - fx) + double(t.at(xb, ya)) * fx;
+    const double bot = double(t.at(xa, yb)) * (1 - fx) + double(t.at(xb, yb)) * fx;
+    return alphaTestPasses(float(top * (1 - fy) + bot * fy), mask.cutoff());
   }
 
   // The state an unknown micro-triangle gets: by majority of the alpha test at the centroids of its 4
@@ -196,7 +374,9 @@ struct TriangleClassifier {
     // Child order of the bird curve (see indexToMicroTriangle).
     const double cX[4][3] = {{ax, abx, acx}, {acx, bcx, abx}, {abx, bx, bcx}, {bcx, acx, cx}};
     const double cY[4][3] = {{ay, aby, acy}, {acy, bcy, aby}, {aby, by, bcy}, {bcy, acy, cy}};
-    for (uint32_t c = 0; c < 4; ++c) node(cX[c], cY[c], depth + 1, prefix * 4 + c, region(cX[c], cY[c]));
+    const int64_t limit = depth + 1 == level ? kLeafCells : kNodeCells;
+    for (uint32_t c = 0; c < 4; ++c)
+      node(cX[c], cY[c], depth + 1, prefix * 4 + c, region(cX[c], cY[c], limit));
   }
 };
 
@@ -222,15 +402,21 @@ void bakeOne(const AlphaMask& mask, std::array<float, 2> uv0, std::array<float, 
   out.uniform.reset();
   out.unknown = 0;
   out.nonFinite = false;
-  if (!finite2(uv0) || !finite2(uv1) || !finite2(uv2)) {
+  const double W = mask.width(), H = mask.height();
+  double X[3] = {double(uv0[0]) * W, double(uv1[0]) * W, double(uv2[0]) * W};
+  double Y[3] = {double(uv0[1]) * H, double(uv1[1]) * H, double(uv2[1]) * H};
+  // NaN/inf UVs, or texel coordinates so large that sampleAlpha's clamped texel arithmetic no longer
+  // interpolates
+  // (|x| ≥ 1e15): not classified.
+  bool usable = true;
+  for (int k = 0; k < 3; ++k)
+    usable = usable && std::fabs(X[k]) < kMaxTexelCoord && std::fabs(Y[k]) < kMaxTexelCoord;
+  if (!usable) {
     out.nonFinite = true;
     out.uniform = wholeUnknown(format, unknownAs);
     out.unknown = microTriangleCount(level);
     return;
   }
-  const double W = mask.width(), H = mask.height();
-  double X[3] = {double(uv0[0]) * W, double(uv1[0]) * W, double(uv2[0]) * W};
-  double Y[3] = {double(uv0[1]) * H, double(uv1[1]) * H, double(uv2[1]) * H};
   TriangleClassifier c{mask};
   c.margin = bakeMarginTexels(X, Y);
   c.shift = mask.sampler().filter == Filter::Linear ? 0.5 : 0.0;
@@ -242,7 +428,7 @@ void bakeOne(const AlphaMask& mask, std::array<float, 2> uv0, std::array<float, 
     X[k] -= c.shift;
     Y[k] -= c.shift;
   }
-  const unsigned r = c.region(X, Y);
+  const unsigned r = c.region(X, Y, level == 0 ? kLeafCells : kNodeCells);
   if (r == kPass || r == kFail) {
     out.uniform = r == kPass ? State::Opaque : State::Transparent;
     return;
@@ -252,7 +438,9 @@ void bakeOne(const AlphaMask& mask, std::array<float, 2> uv0, std::array<float, 
     out.unknown = 1;
     return;
   }
-  out.map = Micromap(level, format);
+  // Every micro-triangle is written by node(), so a map of the same shape from an earlier triangle is reused
+  // as is.
+  if (out.map.level() != level || out.map.format() != format) out.map = Micromap(level, format);
   c.bytes = out.map.bytes().data();
   c.node(X, Y, 0, 0, r);
   out.unknown = c.unknown;
@@ -315,8 +503,10 @@ std::vector<uint8_t> chooseLevels(const Geometry& g, const AlphaMask& mask, cons
 }
 
 // Bakes every triangle at min(level, cap) into `out`.
+// Progress of this pass is reported as progressBase + fraction · progressSpan.
 void bakeAll(const Geometry& g, const AlphaMask& mask, const std::vector<uint8_t>& levels, uint32_t cap,
-             const BakeOptions& o, tbb::task_arena& arena, BakedGeometry& out) {
+             const BakeOptions& o, tbb::task_arena& arena, BakedGeometry& out, double progressBase,
+             double progressSpan) {
   const uint32_t n = g.triangleCount();
   OmmArrayBuilder builder;
   BakeStats& st = out.stats;
@@ -333,7 +523,7 @@ void bakeAll(const Geometry& g, const AlphaMask& mask, const std::vector<uint8_t
       bytes += micromapDataBytes(std::min<uint32_t>(levels[end], cap), o.format);
       ++end;
     }
-    slots.resize(end - t);
+    if (slots.size() < end - t) slots.resize(end - t);  // maps are kept for reuse by the next chunk
     arena.execute([&] {
       tbb::parallel_for(tbb::blocked_range<uint32_t>(t, end, 8), [&](const tbb::blocked_range<uint32_t>& r) {
         for (uint32_t i = r.begin(); i != r.end(); ++i) {
@@ -354,10 +544,9 @@ void bakeAll(const Geometry& g, const AlphaMask& mask, const std::vector<uint8_t
         builder.addSpecial(*b.uniform);
       else
         builder.add(b.map);
-      b.map = Micromap();
     }
     t = end;
-    if (o.progress) o.progress(double(t) / double(n));
+    if (o.progress) o.progress(progressBase + progressSpan * double(t) / double(n));
   }
   out.array = builder.finish();
 }
@@ -505,16 +694,22 @@ Result<BakedGeometry> bakeGeometry(const Geometry& geometry, const Material& mat
   tbb::task_arena arena(options.threads ? int(options.threads) : tbb::task_arena::automatic);
   const std::vector<uint8_t> levels = chooseLevels(geometry, *mask, options);
   const uint32_t top = levels.empty() ? 0 : *std::max_element(levels.begin(), levels.end());
-  bakeAll(geometry, *mask, levels, kMaxLevel, options, arena, out);
+  // With maxBytes, re-bakes may follow: pass k reports within [1 − 2^−k, 1 − 2^−(k+1)], so progress stays
+  // monotone.
+  double span = options.maxBytes > 0 ? 0.5 : 1.0, base = 0;
+  bakeAll(geometry, *mask, levels, kMaxLevel, options, arena, out, base, span);
   out.stats.levelCap = kMaxLevel;
   if (options.maxBytes > 0) {
     // Lower the largest maps (the highest levels) one level at a time until the data fits. Level 0 always
     // fits: a one-state map is uniform and becomes a special index.
     for (uint32_t cap = top; out.array.data.size() > options.maxBytes && cap-- > 0;) {
-      bakeAll(geometry, *mask, levels, cap, options, arena, out);
+      base += span;
+      span *= 0.5;
+      bakeAll(geometry, *mask, levels, cap, options, arena, out, base, span);
       out.stats.levelCap = cap;
     }
   }
+  if (options.progress && span != 1.0) options.progress(1.0);
   finishStats(out);
   out.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;

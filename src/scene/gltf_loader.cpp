@@ -4,6 +4,7 @@
 #include <tiny_gltf.h>
 
 #include <algorithm>
+#include <cfloat>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -21,6 +22,13 @@ namespace {
 using Mat4 = std::array<double, 16>;  // column-major
 
 constexpr Mat4 kIdentity{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+
+// double → float without undefined behaviour for values beyond the float range (they become ±inf).
+float narrow(double v) {
+  if (v > double(FLT_MAX)) return INFINITY;
+  if (v < -double(FLT_MAX)) return -INFINITY;
+  return float(v);
+}
 
 Mat4 mul(const Mat4& a, const Mat4& b) {
   Mat4 c{};
@@ -174,7 +182,23 @@ class GltfLoader {
   int defaultMaterial_ = -1;
   std::vector<uint32_t> firstGeometry_;  // per mesh
   std::map<int, std::shared_ptr<const RawImage>> images_;
+  size_t bufferBytes_ = 0;
+  uint64_t materialised_ = 0;
+  Status charge(const std::string& what, size_t vertices, size_t indices);
 };
+
+Status GltfLoader::charge(const std::string& what, size_t vertices, size_t indices) {
+  if (bufferBytes_ == 0)
+    for (const tinygltf::Buffer& b : model_.buffers) bufferBytes_ += b.data.size();
+  // 20 bytes per vertex (xyz + uv floats), 4 per index.
+  materialised_ += uint64_t(vertices) * 20 + uint64_t(indices) * 4;
+  const uint64_t limit = (uint64_t(64) << 20) + 16 * uint64_t(bufferBytes_);
+  if (materialised_ > limit)
+    return fail(ErrorCode::LimitExceeded, what + ": the scene's vertices and indices would take " +
+                                              std::to_string(materialised_) + " bytes, more than 16x its " +
+                                              std::to_string(bufferBytes_) + " buffer bytes + 64 MiB");
+  return Ok{};
+}
 
 Result<AccessorView> GltfLoader::view(int index, const std::string& what, int expectType) const {
   if (index < 0 || size_t(index) >= model_.accessors.size())
@@ -195,7 +219,8 @@ Result<AccessorView> GltfLoader::view(int index, const std::string& what, int ex
   v.normalized = a.normalized;
   const size_t elem = size_t(compSize) * size_t(comps);
   if (a.bufferView < 0) {
-    if (a.count > (size_t(1) << 31)) return fail(ErrorCode::LimitExceeded, name + ": too many elements");
+    // All zeros, backed by no data: bounded by a constant, not by the file (docs/hardening.md, memory bounds).
+    if (a.count > (size_t(1) << 20)) return fail(ErrorCode::LimitExceeded, name + ": too many elements");
     return v;  // all zeros
   }
   if (size_t(a.bufferView) >= model_.bufferViews.size())
@@ -273,8 +298,16 @@ Status GltfLoader::loadMaterials() {
     m.name = gm.name.empty() ? "material" + std::to_string(i) : gm.name;
     m.doubleSided = gm.doubleSided;
     const auto& f = gm.pbrMetallicRoughness.baseColorFactor;
-    if (f.size() == 4)
-      for (int c = 0; c < 4; ++c) m.baseColorFactor[size_t(c)] = float(f[size_t(c)]);
+    auto finiteFloat = [](double v) { return std::isfinite(v) && std::abs(v) <= double(FLT_MAX); };
+    if (f.size() == 4) {
+      for (int c = 0; c < 4; ++c) {
+        if (!finiteFloat(f[size_t(c)]))
+          return fail(ErrorCode::CorruptFile, "material '" + m.name + "': invalid baseColorFactor");
+        m.baseColorFactor[size_t(c)] = float(f[size_t(c)]);
+      }
+    }
+    if (!finiteFloat(gm.alphaCutoff) || gm.alphaCutoff < 0)
+      return fail(ErrorCode::CorruptFile, "material '" + m.name + "': invalid alphaCutoff");
     m.alphaCutoff = float(gm.alphaCutoff);
     if (gm.alphaMode == "MASK") {
       m.alphaMode = AlphaMode::Mask;
@@ -285,7 +318,7 @@ Status GltfLoader::loadMaterials() {
         m.alphaMode = AlphaMode::Blend;
         scene_.warnings.push_back(
             "material '" + m.name +
-            "' uses alphaMode BLEND: not alpha-tested, no micromaps (use blend-as-mask)");
+            "' uses alphaMode BLEND: not alpha-tested, no micromaps (--blend-as-mask bakes it as MASK)");
       }
     } else if (gm.alphaMode.empty() || gm.alphaMode == "OPAQUE") {
       m.alphaMode = AlphaMode::Opaque;
@@ -293,8 +326,6 @@ Status GltfLoader::loadMaterials() {
       scene_.warnings.push_back("material '" + m.name + "': unknown alphaMode '" + gm.alphaMode +
                                 "', treated as OPAQUE");
     }
-    if (!(m.alphaCutoff >= 0.0f) || !std::isfinite(m.alphaCutoff))
-      return fail(ErrorCode::CorruptFile, "material '" + m.name + "': invalid alphaCutoff");
 
     MatInfo info;
     const tinygltf::TextureInfo& ti = gm.pbrMetallicRoughness.baseColorTexture;
@@ -422,9 +453,16 @@ Status GltfLoader::loadGeometries() {
       if (!pos.ok()) return pos.error();
       const size_t n = pos->count;
       if (n > 0xFFFFFFFFu) return fail(ErrorCode::LimitExceeded, what + ": too many vertices");
+      // Memory bound: primitives may share accessors, so the vertices and indices materialised over the whole scene
+      // are capped at a multiple of the buffer bytes (a small file must not expand to gigabytes).
+      if (Status b = charge(what, n, prim.indices >= 0 && size_t(prim.indices) < model_.accessors.size()
+                                         ? model_.accessors[size_t(prim.indices)].count
+                                         : n);
+          !b.ok())
+        return b;
       g.positions.resize(n * 3);
       for (size_t i = 0; i < n; ++i)
-        for (int c = 0; c < 3; ++c) g.positions[i * 3 + size_t(c)] = float(pos->component(i, c));
+        for (int c = 0; c < 3; ++c) g.positions[i * 3 + size_t(c)] = narrow(pos->component(i, c));
 
       const MatInfo& info = matInfo_[g.material];
       g.uvs.assign(n * 2, 0.0f);
@@ -443,7 +481,7 @@ Status GltfLoader::loadGeometries() {
             const double v2 = info.m[3] * u + info.m[4] * v + info.m[5];
             u = u2, v = v2;
           }
-          g.uvs[i * 2] = float(u), g.uvs[i * 2 + 1] = float(v);
+          g.uvs[i * 2] = narrow(u), g.uvs[i * 2 + 1] = narrow(v);
         }
       } else if (info.alphaFromTexture) {
         scene_.warnings.push_back(what + ": no " + uvName + " for its alpha texture; UVs set to 0");
@@ -529,7 +567,7 @@ Status GltfLoader::loadInstances() {
         for (size_t p = 0; p < prims; ++p) {
           Instance inst;
           inst.geometry = firstGeometry_[size_t(n.mesh)] + uint32_t(p);
-          for (int k = 0; k < 16; ++k) inst.transform[size_t(k)] = float(world[size_t(k)]);
+          for (int k = 0; k < 16; ++k) inst.transform[size_t(k)] = narrow(world[size_t(k)]);
           scene_.instances.push_back(inst);
         }
       }
@@ -544,11 +582,11 @@ Status GltfLoader::loadInstances() {
         double ux = world[4], uy = world[5], uz = world[6];
         const double ul = std::sqrt(ux * ux + uy * uy + uz * uz);
         if (ul > 0) ux /= ul, uy /= ul, uz /= ul;
-        cam.eye = {float(ex), float(ey), float(ez)};
-        cam.target = {float(ex + fx), float(ey + fy), float(ez + fz)};
-        cam.up = {float(ux), float(uy), float(uz)};
+        cam.eye = {narrow(ex), narrow(ey), narrow(ez)};
+        cam.target = {narrow(ex + fx), narrow(ey + fy), narrow(ez + fz)};
+        cam.up = {narrow(ux), narrow(uy), narrow(uz)};
         if (gc.type == "perspective" && gc.perspective.yfov > 0)
-          cam.yfovRadians = float(gc.perspective.yfov);
+          cam.yfovRadians = narrow(gc.perspective.yfov);
         else
           scene_.warnings.push_back("camera " + std::to_string(n.camera) +
                                     " is not a perspective camera; default field of view used");
@@ -599,6 +637,12 @@ Result<Scene> GltfLoader::run(bool binary) {
     return fail(ErrorCode::CorruptFile, msg);
   }
   splitLines(warn, scene_.warnings);
+  // Extensions that change how geometry or images must be read cannot be ignored.
+  for (const std::string& ext : model_.extensionsRequired) {
+    const bool supported = ext == "KHR_texture_transform" || ext == "KHR_mesh_quantization" ||
+                           ext.rfind("KHR_materials_", 0) == 0;
+    if (!supported) return fail(ErrorCode::UnsupportedFormat, "requires the unsupported extension " + ext);
+  }
   scene_.sourcePath = path_;
   Status st = loadMaterials();
   if (!st.ok()) return st.error();

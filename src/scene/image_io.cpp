@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <climits>
 #include <cmath>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <memory>
@@ -16,10 +18,69 @@ namespace {
 
 // Limit on decoded texels × channels we accept (1 Gi values = 2 GiB of 16-bit samples).
 constexpr uint64_t kMaxSamples = uint64_t(1) << 30;
+// Memory bound against hostile headers (docs/hardening.md): beyond 16 Mi samples, an image may not declare more
+// samples than 1032 per byte of encoded data — deflate (PNG) cannot expand more than 1032:1, so no valid PNG is
+// rejected, and other formats of real content compress far less. A 100-byte file claiming 30000x30000 texels is
+// refused before anything is allocated.
+constexpr uint64_t kFreeSamples = uint64_t(1) << 24;
+constexpr uint64_t kMaxExpansion = 1032;
 
 struct StbiFree {
   void operator()(void* p) const noexcept { stbi_image_free(p); }
 };
+
+// PNG: every chunk must fit in the bytes present. stb_image grows its IDAT buffer to a chunk's declared length
+// before reading it, so a 100-byte file declaring a 2 GB IDAT chunk would make it allocate 2 GB.
+std::string pngChunkProblem(const uint8_t* p, size_t n) {
+  static const uint8_t kSig[8] = {0x89, 'P', 'N', 'G', 0x0d, 0x0a, 0x1a, 0x0a};
+  if (n < 8 || std::memcmp(p, kSig, 8) != 0) return {};
+  size_t i = 8;
+  while (n - i >= 8) {
+    const uint64_t len = uint64_t(p[i]) << 24 | uint64_t(p[i + 1]) << 16 | uint64_t(p[i + 2]) << 8 | p[i + 3];
+    if (len + 12 > n - i)
+      return "truncated PNG: a chunk at offset " + std::to_string(i) + " declares " + std::to_string(len) +
+             " bytes but only " + std::to_string(n - i) + " remain";
+    if (std::memcmp(p + i + 4, "IEND", 4) == 0) break;
+    i += size_t(len) + 12;
+  }
+  return {};
+}
+
+// JPEG: a Huffman table may hold at most 256 codes. The Debian stb_image does not check this and writes past its
+// tables (a heap buffer overflow) when a DHT segment's 16 counts add up to more; refuse such files first. Walks the
+// marker segments like stb does (entropy-coded data byte by byte), so every DHT stb would read is seen.
+bool jpegHuffmanTablesValid(const uint8_t* p, size_t n) {
+  // stb accepts any number of 0xFF fill bytes before SOI (FF D8).
+  size_t i = 0;
+  while (i < n && p[i] == 0xFF) ++i;
+  if (i == 0 || i >= n || p[i] != 0xD8) return true;
+  ++i;
+  auto at = [&](size_t k) -> uint32_t { return k < n ? p[k] : 0u; };  // stb reads zeros past the end
+  while (i + 1 < n) {
+    if (p[i] != 0xFF || p[i + 1] == 0xFF) {  // entropy-coded data, or a fill byte before a marker
+      ++i;
+      continue;
+    }
+    const uint8_t m = p[i + 1];
+    if (m == 0x00 || m == 0x01 || m == 0xD8 || (m >= 0xD0 && m <= 0xD7)) {  // stuffed byte, TEM, SOI, RSTn
+      i += 2;
+      continue;
+    }
+    if (m == 0xD9) break;  // EOI
+    const size_t len = size_t(at(i + 2) << 8 | at(i + 3));
+    if (m == 0xC4) {
+      const size_t end = i + 2 + len;
+      for (size_t t = i + 4; t < end && t < n;) {
+        uint32_t codes = 0;
+        for (size_t k = 1; k <= 16; ++k) codes += at(t + k);
+        if (codes > 256) return false;
+        t += 17 + codes;
+      }
+    }
+    i += 2 + (len < 2 ? 2 : len);
+  }
+  return true;
+}
 
 }  // namespace
 
@@ -27,17 +88,24 @@ Result<RawImage> decodeImage(const uint8_t* data, size_t size) {
   if (size == 0) return makeError(ErrorCode::CorruptFile, "empty image data");
   if (size > size_t(INT_MAX)) return makeError(ErrorCode::LimitExceeded, "image data larger than 2 GiB");
   const int n = int(size);
+  if (std::string why = pngChunkProblem(data, size); !why.empty()) return makeError(ErrorCode::CorruptFile, why);
+  if (!jpegHuffmanTablesValid(data, size))
+    return makeError(ErrorCode::CorruptFile, "corrupt JPEG: a Huffman table declares more than 256 codes");
   int w = 0, h = 0, comp = 0;
   if (!stbi_info_from_memory(data, n, &w, &h, &comp)) {
     const char* why = stbi_failure_reason();
     return makeError(ErrorCode::CorruptFile,
-                     std::string("cannot decode image (") + (why ? why : "unknown format") + ")");
+                     "cannot decode image (" + oneLine(why ? why : "unknown format") + ")");
   }
   if (w < 1 || h < 1 || comp < 1 || comp > 4)
     return makeError(ErrorCode::CorruptFile, "image has invalid dimensions or channel count");
   if (uint64_t(w) * uint64_t(h) * uint64_t(comp) > kMaxSamples)
     return makeError(ErrorCode::LimitExceeded, "image of " + std::to_string(w) + "x" + std::to_string(h) +
                                                    " texels is larger than supported");
+  if (uint64_t(w) * uint64_t(h) * uint64_t(comp) > kFreeSamples + kMaxExpansion * uint64_t(size))
+    return makeError(ErrorCode::LimitExceeded, "image declares " + std::to_string(w) + "x" + std::to_string(h) +
+                                                   " texels but its " + std::to_string(size) +
+                                                   " bytes cannot hold that many (truncated or corrupt)");
   RawImage img;
   const bool is16 = stbi_is_16_bit_from_memory(data, n) != 0;
   int w2 = 0, h2 = 0, c2 = 0;
@@ -46,7 +114,7 @@ Result<RawImage> decodeImage(const uint8_t* data, size_t size) {
     if (!p) {
       const char* why = stbi_failure_reason();
       return makeError(ErrorCode::CorruptFile,
-                       std::string("cannot decode image (") + (why ? why : "?") + ")");
+                       "cannot decode image (" + oneLine(why ? why : "?") + ")");
     }
     img.width = uint32_t(w2), img.height = uint32_t(h2), img.channels = uint32_t(c2), img.sixteenBit = true;
     img.px.assign(p.get(), p.get() + size_t(w2) * size_t(h2) * size_t(c2));
@@ -55,7 +123,7 @@ Result<RawImage> decodeImage(const uint8_t* data, size_t size) {
     if (!p) {
       const char* why = stbi_failure_reason();
       return makeError(ErrorCode::CorruptFile,
-                       std::string("cannot decode image (") + (why ? why : "?") + ")");
+                       "cannot decode image (" + oneLine(why ? why : "?") + ")");
     }
     img.width = uint32_t(w2), img.height = uint32_t(h2), img.channels = uint32_t(c2);
     const size_t count = size_t(w2) * size_t(h2) * size_t(c2);
@@ -69,9 +137,20 @@ Result<RawImage> decodeImage(const uint8_t* data, size_t size) {
 }
 
 Result<RawImage> readImageFile(const std::string& path) {
+  // Only regular files: a directory made the read below throw (std::terminate, found by fuzz_obj with `map_Kd /`),
+  // and a device such as /dev/zero would never end.
+  std::error_code ec;
+  const auto st = std::filesystem::status(path, ec);
+  if (!ec && std::filesystem::exists(st) && !std::filesystem::is_regular_file(st))
+    return makeError(ErrorCode::IoError, "not a regular file");
   std::ifstream f(path, std::ios::binary);
   if (!f) return makeError(ErrorCode::IoError, "cannot open file");
-  std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  std::vector<uint8_t> bytes;
+  try {
+    bytes.assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+  } catch (const std::exception&) {
+    return makeError(ErrorCode::IoError, "cannot read file");
+  }
   if (f.bad()) return makeError(ErrorCode::IoError, "cannot read file");
   return decodeImage(bytes.data(), bytes.size());
 }

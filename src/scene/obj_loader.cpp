@@ -189,6 +189,7 @@ Result<Scene> ObjLoader::run() {
   size_t degenerate = 0;
   for (size_t si = 0; si < shapes.size(); ++si) {
     const tinyobj::mesh_t& mesh = shapes[si].mesh;
+    const std::string shapeName = shapes[si].name.empty() ? "shape" + std::to_string(si) : shapes[si].name;
     size_t offset = 0;
     for (size_t f = 0; f < mesh.num_face_vertices.size(); ++f) {
       const size_t n = mesh.num_face_vertices[f];
@@ -204,8 +205,6 @@ Result<Scene> ObjLoader::run() {
       auto it = geometryOf.find(key);
       if (it == geometryOf.end()) {
         Geometry g;
-        const std::string shapeName =
-            shapes[si].name.empty() ? "shape" + std::to_string(si) : shapes[si].name;
         if (mat < 0) {
           if (defaultMaterial < 0) {
             defaultMaterial = int(scene_.materials.size());
@@ -228,14 +227,14 @@ Result<Scene> ObjLoader::run() {
       for (size_t k = 0; k < n; ++k) {
         const tinyobj::index_t& ix = mesh.indices[offset + k];
         if (ix.vertex_index < 0 || size_t(ix.vertex_index) >= nv)
-          return fail(ErrorCode::ParseError, "face " + std::to_string(f) + " of shape '" + shapes[si].name +
+          return fail(ErrorCode::ParseError, "face " + std::to_string(f + 1) + " of shape '" + shapeName +
                                                  "' refers to vertex " + std::to_string(ix.vertex_index + 1) +
-                                                 " but the file has " + std::to_string(nv));
+                                                 " but the file has " + std::to_string(nv) + " vertices");
         if (ix.texcoord_index >= 0 && size_t(ix.texcoord_index) >= nt)
-          return fail(ErrorCode::ParseError, "face " + std::to_string(f) + " of shape '" + shapes[si].name +
+          return fail(ErrorCode::ParseError, "face " + std::to_string(f + 1) + " of shape '" + shapeName +
                                                  "' refers to texture coordinate " +
-                                                 std::to_string(ix.texcoord_index + 1) +
-                                                 " but the file has " + std::to_string(nt));
+                                                 std::to_string(ix.texcoord_index + 1) + " but the file has " +
+                                                 std::to_string(nt) + " texture coordinates");
         const uint64_t vkey = (uint64_t(uint32_t(ix.vertex_index)) << 32) | uint32_t(ix.texcoord_index);
         auto [vit, inserted] = b.remap.emplace(vkey, uint32_t(g.positions.size() / 3));
         if (inserted) {

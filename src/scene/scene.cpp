@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <new>
+#include <stdexcept>
 #include <system_error>
 
 #include "loaders.h"
@@ -19,16 +21,20 @@ Result<Scene> loadScene(const std::string& path, const LoadOptions& options) {
     return makeError(ErrorCode::IoError, path + ": not a regular file");
   std::string ext = p.extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  Result<Scene> r = makeError(ErrorCode::UnsupportedFormat, "");
-  if (ext == ".gltf")
-    r = detail::loadGltf(path, false, options);
-  else if (ext == ".glb")
-    r = detail::loadGltf(path, true, options);
-  else if (ext == ".obj")
-    r = detail::loadObj(path, options);
-  else
+  if (ext != ".gltf" && ext != ".glb" && ext != ".obj")
     return makeError(ErrorCode::UnsupportedFormat,
                      path + ": unknown scene format '" + ext + "' (expected .gltf, .glb or .obj)");
+  Result<Scene> r = makeError(ErrorCode::UnsupportedFormat, "");
+  try {
+    if (ext == ".obj")
+      r = detail::loadObj(path, options);
+    else
+      r = detail::loadGltf(path, ext == ".glb", options);
+  } catch (const std::bad_alloc&) {
+    return makeError(ErrorCode::LimitExceeded, path + ": out of memory while loading the scene");
+  } catch (const std::length_error&) {
+    return makeError(ErrorCode::LimitExceeded, path + ": scene too large");
+  }
   if (!r.ok()) return r;
   Scene& s = r.value();
   size_t badPos = 0, badUv = 0;

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 
 #include "somm/bird.h"
 #include "somm/trace.h"
@@ -109,25 +110,34 @@ OmmArrays bakeSimple(const Scene& scene, uint32_t level, Format format) {
     const Material& mat = scene.materials[geo.material];
     if (!mat.alphaTested()) continue;
     const uint32_t tris = geo.triangleCount();
-    std::vector<Micromap> maps(tris);
-    tbb::parallel_for(uint32_t(0), tris, [&](uint32_t tri) {
-      float uv[6] = {0, 0, 0, 0, 0, 0};
+    // Triangles with identical UVs get identical micromaps: classify each distinct UV triangle once.
+    std::map<std::array<float, 6>, uint32_t> distinct;
+    std::vector<std::array<float, 6>> keys;
+    std::vector<uint32_t> which(tris);
+    for (uint32_t tri = 0; tri < tris; ++tri) {
+      std::array<float, 6> uv{};
       if (!geo.uvs.empty())
         for (int i = 0; i < 3; ++i) {
           uv[2 * i] = geo.uvs[2 * size_t(geo.indices[3 * size_t(tri) + i])];
           uv[2 * i + 1] = geo.uvs[2 * size_t(geo.indices[3 * size_t(tri) + i]) + 1];
         }
+      auto [it, fresh] = distinct.try_emplace(uv, uint32_t(keys.size()));
+      if (fresh) keys.push_back(uv);
+      which[tri] = it->second;
+    }
+    std::vector<Micromap> maps(keys.size());
+    tbb::parallel_for(size_t(0), keys.size(), [&](size_t k) {
       Micromap map(level, format);
-      for (uint32_t k = 0; k < microTriangleCount(level); ++k) {
-        const MicroTriangleF mt = indexToMicroTriangleF(k, level);
-        State s = classifyRegion(mat, uv, mt.u, mt.v, 3);
+      for (uint32_t m = 0; m < microTriangleCount(level); ++m) {
+        const MicroTriangleF mt = indexToMicroTriangleF(m, level);
+        State s = classifyRegion(mat, keys[k].data(), mt.u, mt.v, 3);
         if (format == Format::TwoState) s = toTwoState(s);
-        map.set(k, s);
+        map.set(m, s);
       }
-      maps[tri] = std::move(map);
+      maps[k] = std::move(map);
     });
     OmmArrayBuilder builder;
-    for (const Micromap& m : maps) builder.add(m);
+    for (uint32_t tri = 0; tri < tris; ++tri) builder.add(maps[which[tri]]);
     out[g] = builder.finish();
   }
   return out;

@@ -11,13 +11,15 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <map>
 
+#include "somm/encode.h"
 #include "trace_internal.h"
+#define SOMM_TRACE_HAS_ENCODINGS 1
 
 namespace somm {
 
-// ---- small helpers
-// ---------------------------------------------------------------------------------------------------
+// ---- small helpers ----
 
 TraceCounters& TraceCounters::operator+=(const TraceCounters& o) noexcept {
   primaryRays += o.primaryRays;
@@ -105,8 +107,7 @@ Status writePng(const std::string& path, const Image& image) {
   return Ok{};
 }
 
-// ---- the world
-// -----------------------------------------------------------------------------------------------------
+// ---- the world ----
 
 namespace {
 
@@ -224,20 +225,32 @@ Result<std::shared_ptr<const TraceWorld>> TraceWorld::create(std::shared_ptr<con
 Camera TraceWorld::camera(const RenderSettings& settings) const {
   if (settings.camera) return *settings.camera;
   if (scene_->camera) return *scene_->camera;
+  // Frame the bounding box: the smallest distance along a fixed oblique direction at which all eight corners
+  // project inside the image (a little margin).
   const V3 c = mul(add(bounds_.lower, bounds_.upper), 0.5f);
-  const float radius = std::max(
-      1e-6f, 0.5f * std::sqrt(dot(sub(bounds_.upper, bounds_.lower), sub(bounds_.upper, bounds_.lower))));
   Camera cam;
   cam.yfovRadians = 0.8f;
-  const float dist = radius / std::sin(0.5f * cam.yfovRadians) * 1.02f;
-  cam.eye = add(c, mul(normalize({0.45f, 0.2f, 1.0f}), dist));
+  const V3 toCam = normalize({0.45f, 0.2f, 1.0f});
+  const V3 right = normalize(cross(mul(toCam, -1.0f), {0, 1, 0}));
+  const V3 up = cross(right, mul(toCam, -1.0f));
+  const float tanV = std::tan(0.5f * cam.yfovRadians);
+  const float tanH = tanV * float(std::max(1u, settings.width)) / float(std::max(1u, settings.height));
+  float dist = 1e-6f;
+  for (int k = 0; k < 8; ++k) {
+    const V3 corner{(k & 1) ? bounds_.upper[0] : bounds_.lower[0],
+                    (k & 2) ? bounds_.upper[1] : bounds_.lower[1],
+                    (k & 4) ? bounds_.upper[2] : bounds_.lower[2]};
+    const V3 o = sub(corner, c);
+    dist = std::max(dist,
+                    dot(o, toCam) + std::max(std::fabs(dot(o, right)) / tanH, std::fabs(dot(o, up)) / tanV));
+  }
+  cam.eye = add(c, mul(toCam, dist));
   cam.target = c;
   cam.up = {0, 1, 0};
   return cam;
 }
 
-// ---- filter functions
-// ----------------------------------------------------------------------------------------------
+// ---- filter functions ----
 
 namespace detail {
 
@@ -311,10 +324,34 @@ struct FlatOmmPolicy {
   }
 };
 
+#if SOMM_TRACE_HAS_ENCODINGS
+struct EncodedOmmData {
+  const GeometryData* geometry = nullptr;
+  const EncodedArray* array = nullptr;
+};
+
+// Compressed micromaps: the encoding's own inline lookup, fixed at compile time.
+template <Encoding E, bool FourState>
+struct EncodedOmmPolicy {
+  using Data = EncodedOmmData;
+  static bool accept(const Data& d, uint32_t prim, float u, float v, TraceCounters& c) noexcept {
+    ++c.micromapLookups;
+    const State s = d.array->template stateUVAs<E>(prim, u, v);
+    if constexpr (!FourState) {
+      return (uint8_t(s) & 1u) != 0;
+    } else {
+      if (s == State::Opaque) return true;
+      if (s == State::Transparent) return false;
+      ++c.textureTests;
+      return textureTest(*d.geometry, prim, u, v);
+    }
+  }
+};
+#endif
+
 }  // namespace detail
 
-// ---- tracers
-// -------------------------------------------------------------------------------------------------------
+// ---- tracers ----
 
 struct TracerFactory {
   // Builds the Embree scene: every flattened instance, filters on alpha-tested geometries when `filter` is
@@ -404,7 +441,19 @@ Result<std::unique_ptr<Tracer>> makeBitmaskTracer(std::shared_ptr<const TraceWor
     const size_t tris = gd.triUVs.size() / 6;
     auto& mask = store->masks[g];
     mask.assign(tris * bytesPerTriangle, 0);
-    tbb::parallel_for(size_t(0), tris, [&](size_t t) {
+    // Triangles with identical UVs get identical masks: build each distinct UV triangle's mask once, then
+    // copy.
+    std::map<std::array<float, 6>, size_t> first;
+    std::vector<size_t> source(tris), builds;
+    for (size_t t = 0; t < tris; ++t) {
+      std::array<float, 6> key;
+      std::copy_n(gd.triUVs.data() + 6 * t, 6, key.begin());
+      auto [it, fresh] = first.try_emplace(key, t);
+      if (fresh) builds.push_back(t);
+      source[t] = it->second;
+    }
+    tbb::parallel_for(size_t(0), builds.size(), [&](size_t b) {
+      const size_t t = builds[b];
       const float* uv = gd.triUVs.data() + 6 * t;
       uint8_t* m = mask.data() + t * bytesPerTriangle;
       const float inv = 1.0f / float(n);
@@ -414,12 +463,16 @@ Result<std::unique_ptr<Tracer>> makeBitmaskTracer(std::shared_ptr<const TraceWor
           // whole).
           const float us[4] = {iu * inv, (iu + 1) * inv, iu * inv, (iu + 1) * inv};
           const float vs[4] = {iv * inv, iv * inv, (iv + 1) * inv, (iv + 1) * inv};
-          const State s = classifyRegion(*gd.material, uv, us, vs, 4);
-          const uint32_t code = s == State::Transparent ? 0u : s == State::Opaque ? 1u : 2u;
+          const State st = classifyRegion(*gd.material, uv, us, vs, 4);
+          const uint32_t code = st == State::Transparent ? 0u : st == State::Opaque ? 1u : 2u;
           const uint32_t cell = iv * n + iu;
           m[cell >> 2] = uint8_t(m[cell >> 2] | (code << (2 * (cell & 3))));
         }
     });
+    for (size_t t = 0; t < tris; ++t)
+      if (source[t] != t)
+        std::copy_n(mask.data() + source[t] * bytesPerTriangle, bytesPerTriangle,
+                    mask.data() + t * bytesPerTriangle);
     bd.masks = mask.data();
     bytes += mask.size();
   }
@@ -510,8 +563,100 @@ Result<std::unique_ptr<Tracer>> makeStateOverlayTracer(std::shared_ptr<const Tra
   return makeFlat(std::move(world), std::move(arrays), Format::FourState, true);
 }
 
-// ---- rendering
-// -----------------------------------------------------------------------------------------------------
+#if SOMM_TRACE_HAS_ENCODINGS
+namespace {
+
+template <Encoding E>
+RTCFilterFunctionN encodedFilter(Format format) {
+  return format == Format::TwoState ? &detail::filterFunction<detail::EncodedOmmPolicy<E, false>>
+                                    : &detail::filterFunction<detail::EncodedOmmPolicy<E, true>>;
+}
+
+Result<std::unique_ptr<Tracer>> makeEncoded(std::shared_ptr<const TraceWorld> world,
+                                            std::shared_ptr<const OmmArrays> arrays, Format format,
+                                            Encoding encoding) {
+  if (Status s = checkArrays(*world, *arrays); !s) return s.error();
+  const auto& geoms = world->impl().geometries;
+  struct Store {
+    std::vector<EncodedArray> arrays;
+    std::vector<detail::EncodedOmmData> data;
+  };
+  auto store = std::make_shared<Store>();
+  store->arrays.resize(geoms.size());
+  store->data.resize(geoms.size());
+  uint64_t bytes = 0;
+  for (size_t g = 0; g < geoms.size(); ++g) {
+    detail::EncodedOmmData& d = store->data[g];
+    d.geometry = &geoms[g];
+    if (!geoms[g].alphaTested) continue;
+    auto built = EncodedArray::build((*arrays)[g], encoding);
+    if (!built) return built.error();
+    store->arrays[g] = std::move(built).value();
+    d.array = &store->arrays[g];
+    bytes += store->arrays[g].byteSize();
+  }
+  std::vector<void*> user;
+  for (auto& d : store->data) user.push_back(&d);
+  RTCFilterFunctionN f = nullptr;
+  switch (encoding) {
+    case Encoding::Flat:
+      f = encodedFilter<Encoding::Flat>(format);
+      break;
+    case Encoding::Dfs:
+      f = encodedFilter<Encoding::Dfs>(format);
+      break;
+    case Encoding::DfsFast:
+      f = encodedFilter<Encoding::DfsFast>(format);
+      break;
+    case Encoding::Rank:
+      f = encodedFilter<Encoding::Rank>(format);
+      break;
+    case Encoding::Hybrid:
+      f = encodedFilter<Encoding::Hybrid>(format);
+      break;
+  }
+  const std::string name =
+      std::string(format == Format::TwoState ? "omm2-" : "omm4-") + encodingName(encoding);
+  return TracerFactory::build(std::move(world), name, bytes, f, std::move(user), store, MethodKind::Omm,
+                              nullptr);
+}
+
+}  // namespace
+#endif
+
+Result<std::unique_ptr<Tracer>> makeTracer(std::shared_ptr<const TraceWorld> world, const MethodSpec& method,
+                                           const MicromapSet& micromaps) {
+  auto need = [&](const std::shared_ptr<const OmmArrays>& a) -> Status {
+    if (!a)
+      return makeError(ErrorCode::InvalidArgument,
+                       "method " + method.name() + ": no micromaps of that format");
+    return Ok{};
+  };
+  switch (method.kind) {
+    case MethodKind::Opaque:
+      return makeOpaqueTracer(std::move(world));
+    case MethodKind::Texture:
+      return makeTextureTracer(std::move(world));
+    case MethodKind::Bitmask:
+      return makeBitmaskTracer(std::move(world), micromaps.bitmaskLevel);
+    case MethodKind::StateOverlay:
+      if (Status s = need(micromaps.flat4); !s) return s.error();
+      return makeStateOverlayTracer(std::move(world), micromaps.flat4);
+    case MethodKind::Omm: {
+      const auto& arrays = method.format == Format::TwoState ? micromaps.flat2 : micromaps.flat4;
+      if (Status s = need(arrays); !s) return s.error();
+      if (method.encoding == "flat") return makeFlatOmmTracer(std::move(world), arrays, method.format);
+#if SOMM_TRACE_HAS_ENCODINGS
+      if (auto e = parseEncodingName(method.encoding))
+        return makeEncoded(std::move(world), arrays, method.format, *e);
+#endif
+      return makeError(ErrorCode::InvalidArgument, "method " + method.name() + ": encoding not available");
+    }
+  }
+  return makeError(ErrorCode::InvalidArgument, "unknown method");
+}
+
+// ---- rendering ----
 
 namespace {
 
@@ -532,9 +677,9 @@ V3 baseColor(const Material& m, float s, float t) {
 V3 stateColor(State s) {
   switch (s) {
     case State::Opaque:
-      return {0.25f, 0.85f, 0.3f};
+      return {0.45f, 0.8f, 0.45f};
     case State::UnknownOpaque:
-      return {1.0f, 0.65f, 0.1f};
+      return {1.0f, 0.55f, 0.0f};
     case State::UnknownTransparent:
       return {0.95f, 0.25f, 0.2f};
     case State::Transparent:
@@ -652,7 +797,9 @@ RenderResult Tracer::render(const RenderSettings& settings) const {
               if (sr.tfar < 0.0f) direct = 0.0f;
             }
           }
-          acc = add(acc, mul(albedo, 0.3f + 0.7f * direct));
+          // The overlay keeps shading contrast low so that the state colours stay readable.
+          acc = add(acc, mul(albedo, kind == MethodKind::StateOverlay ? 0.65f + 0.35f * direct
+                                                                      : 0.3f + 0.7f * direct));
         }
         uint8_t* px = result.image.rgba.data() + (size_t(y) * W + x) * 4;
         for (int k = 0; k < 3; ++k) {
@@ -682,6 +829,12 @@ RenderResult Tracer::render(const RenderSettings& settings) const {
 
 namespace somm::detail {
 std::vector<std::string> encodingNames() {
+#if SOMM_TRACE_HAS_ENCODINGS
+  std::vector<std::string> names;
+  for (Encoding e : kAllEncodings) names.push_back(encodingName(e));
+  return names;
+#else
   return {"flat"};
+#endif
 }
 }  // namespace somm::detail

@@ -73,9 +73,11 @@ TEST(Tightness, HalfPlaneNearestLeavesOnlyStraddlersUnknown) {
   EXPECT_LT(straddlers, 200u);  // ~2^level along the edge, out of 4096
 }
 
-// Linear: the blend ramps between texel centres 31.5 and 32.5; the corner bound leaves exactly the
-// micro-triangles whose x-extent meets [31.5, 32.5] unknown.
-TEST(Tightness, HalfPlaneLinearUnknownOnlyOnTheRamp) {
+// Linear: the blend ramps from 1 to 0 between the texel centres 31.5 and 32.5 and crosses the cutoff 0.5 at x
+// = 32. The exact bilinear bound leaves exactly the micro-triangles whose x-extent straddles 32 unknown (a
+// bound by the four corner texels alone would leave every micro-triangle touching the ramp [31.5, 32.5]
+// unknown).
+TEST(Tightness, HalfPlaneLinearUnknownOnlyAcrossTheIsoLine) {
   const AlphaTexture tex = makeTexture(64, 64, [](uint32_t x, uint32_t) { return x < 32 ? 1.0 : 0.0; });
   const AlphaMask mask(tex, Sampler{Wrap::ClampToEdge, Wrap::ClampToEdge, Filter::Linear}, 0.5f);
   const double P[3][2] = {{3.06, 4.99}, {61.42, 12.51}, {18.9, 60.3}};
@@ -83,7 +85,7 @@ TEST(Tightness, HalfPlaneLinearUnknownOnlyOnTheRamp) {
   const TriangleBake b = bakeTriangle(mask, {float(P[0][0] / 64), float(P[0][1] / 64)},
                                       {float(P[1][0] / 64), float(P[1][1] / 64)},
                                       {float(P[2][0] / 64), float(P[2][1] / 64)}, level, Format::FourState);
-  uint64_t onRamp = 0;
+  uint64_t straddlers = 0, onRamp = 0;
   for (uint32_t i = 0; i < b.map.size(); ++i) {
     const MicroTriangle m = indexToMicroTriangle(i, level);
     double lo = 1e9, hi = -1e9;
@@ -92,12 +94,18 @@ TEST(Tightness, HalfPlaneLinearUnknownOnlyOnTheRamp) {
       lo = std::min(lo, x);
       hi = std::max(hi, x);
     }
-    ASSERT_FALSE(std::fabs(lo - 31.5) < 0.01 || std::fabs(hi - 32.5) < 0.01) << i;
-    const bool ramp = hi > 31.5 && lo < 32.5;
-    onRamp += ramp;
-    EXPECT_EQ(!isKnown(b.map.get(i)), ramp) << i;
+    ASSERT_FALSE(std::fabs(lo - 32) < 0.01 || std::fabs(hi - 32) < 0.01) << i;
+    const bool straddles = lo < 32 && hi > 32;
+    straddlers += straddles;
+    onRamp += hi > 31.5 && lo < 32.5;
+    const State s = b.map.get(i);
+    EXPECT_EQ(!isKnown(s), straddles) << i;
+    if (!straddles) {
+      EXPECT_EQ(s, hi < 32 ? State::Opaque : State::Transparent) << i;
+    }
   }
-  EXPECT_EQ(b.unknownCount, onRamp);
+  EXPECT_EQ(b.unknownCount, straddlers);
+  EXPECT_LT(2 * straddlers, onRamp);
 }
 
 TEST(Tightness, UnknownMajorityFollowsCoverage) {
@@ -333,6 +341,13 @@ TEST(BakeGeometry, NonFiniteUvsAreWholeTriangleUnknown) {
   o.unknownAs = UnknownAs::Transparent;
   r = bakeGeometry(g, m, o);
   EXPECT_EQ(r->array.indices[0], specialIndexFor(State::Transparent));
+  // Finite but absurdly large UVs (beyond the texel range sampleAlpha interpolates in) are unknown too.
+  const AlphaMask mask(*m.alpha, m.sampler, 0.5f);
+  const TriangleBake big =
+      bakeTriangle(mask, {3e12f, 0}, {3e12f + 1e6f, 0}, {3e12f, 1}, 2, Format::FourState);
+  EXPECT_TRUE(big.nonFiniteUv);
+  EXPECT_EQ(big.map.uniformState(), State::UnknownOpaque);
+  EXPECT_EQ(big.unknownCount, 16u);
 }
 
 TEST(BakeGeometry, ZeroAreaTrianglesClassifiedFromWhatTheyTouch) {
@@ -382,6 +397,27 @@ TEST(BakeGeometry, RejectsBadInput) {
   EXPECT_NE(r.error().message.find("material 'disc'"), std::string::npos);
 }
 
+TEST(BakeGeometry, SharedMaskGivesTheSameBake) {
+  const Geometry g = randomGeometry(300, 6);
+  const Material m = discMaterial();
+  BakeOptions o;
+  o.level = 4;
+  o.filter = Filter::Nearest;
+  o.cutoff = 0.3f;
+  auto own = bakeGeometry(g, m, o);
+  ASSERT_TRUE(own.ok());
+  Sampler smp = m.sampler;
+  smp.filter = Filter::Nearest;
+  const AlphaMask mask(*m.alpha, smp, 0.3f);
+  auto shared = bakeGeometry(g, m, &mask, o);
+  ASSERT_TRUE(shared.ok());
+  EXPECT_EQ(shared->array.data, own->array.data);
+  EXPECT_EQ(shared->array.indices, own->array.indices);
+  auto missing = bakeGeometry(g, m, nullptr, o);
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(missing.error().message.find("material 'disc'"), std::string::npos);
+}
+
 TEST(BakeGeometry, ProgressReachesOne) {
   const Geometry g = randomGeometry(9000, 4);
   const Material m = discMaterial();
@@ -393,6 +429,16 @@ TEST(BakeGeometry, ProgressReachesOne) {
   ASSERT_GE(seen.size(), 2u);
   EXPECT_TRUE(std::is_sorted(seen.begin(), seen.end()));
   EXPECT_EQ(seen.back(), 1.0);
+  // With re-bakes for maxBytes the progress stays monotone and ends at 1.
+  seen.clear();
+  o.level = 5;
+  o.maxBytes = 2000;
+  auto r = bakeGeometry(g, m, o);
+  ASSERT_TRUE(r.ok());
+  EXPECT_LT(r->stats.levelCap, 4u);  // several passes
+  EXPECT_TRUE(std::is_sorted(seen.begin(), seen.end()));
+  EXPECT_EQ(seen.back(), 1.0);
+  EXPECT_LE(r->array.data.size(), 2000u);
 }
 
 }  // namespace

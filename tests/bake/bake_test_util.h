@@ -2,6 +2,8 @@
 // texture.h.
 #pragma once
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <cstdint>
 #include <random>
@@ -9,6 +11,7 @@
 #include <vector>
 
 #include "somm/bird.h"
+#include "somm/micromap.h"
 #include "somm/texture.h"
 
 namespace somm::testing {
@@ -127,6 +130,41 @@ inline std::vector<std::pair<float, float>> pointsIn(uint32_t index, uint32_t le
                    float(v[0] + a * (v[1] - v[0]) + b * (v[2] - v[0])));
   }
   return p;
+}
+
+struct CheckCounts {
+  uint64_t known = 0, unknown = 0, points = 0, failures = 0;
+};
+
+// Every point of every known micro-triangle must agree with the alpha test, evaluated both by the independent
+// sampler and by texture.h; the state a tracer reads at the point's barycentrics (baryToIndex) must agree
+// too.
+inline void checkMap(const AlphaTexture& tex, const Sampler& smp, float cutoff, const float uv[3][2],
+                     const Micromap& map, std::mt19937& rng, int interior, const std::string& what,
+                     CheckCounts& counts) {
+  const uint32_t level = map.level();
+  for (uint32_t i = 0; i < map.size(); ++i) {
+    const State s = map.get(i);
+    if (!isKnown(s)) {
+      ++counts.unknown;
+      continue;
+    }
+    ++counts.known;
+    for (const auto& [b1, b2] : pointsIn(i, level, rng, interior)) {
+      float S, T;
+      interpolateUV(uv, b1, b2, S, T);
+      const bool ref = refAlpha(tex, smp, S, T) >= cutoff;
+      const bool lib = alphaTestPasses(sampleAlpha(tex, smp, S, T), cutoff);
+      const State traced = map.get(baryToIndex(b1, b2, level));
+      ++counts.points;
+      const bool bad =
+          ref != (s == State::Opaque) || lib != ref || (isKnown(traced) && (traced == State::Opaque) != ref);
+      if (bad && ++counts.failures <= 5)
+        ADD_FAILURE() << what << ": micro-triangle " << i << " (level " << level << ") is " << int(s)
+                      << " but the alpha test at bary (" << b1 << ", " << b2 << ") uv (" << S << ", " << T
+                      << ") gives ref " << ref << " lib " << lib << ", traced state " << int(traced);
+    }
+  }
 }
 
 }  // namespace somm::testing

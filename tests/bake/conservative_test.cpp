@@ -11,44 +11,11 @@
 namespace somm {
 namespace {
 
+using testing::CheckCounts;
+using testing::checkMap;
 using testing::interpolateUV;
 using testing::pointsIn;
 using testing::refAlpha;
-
-struct CheckCounts {
-  uint64_t known = 0, unknown = 0, points = 0, failures = 0;
-};
-
-// Every point of every known micro-triangle must agree with the alpha test, evaluated both by the independent
-// sampler and by texture.h; the state a tracer reads at the point's barycentrics (baryToIndex) must agree
-// too.
-void checkMap(const AlphaTexture& tex, const Sampler& smp, float cutoff, const float uv[3][2],
-              const Micromap& map, std::mt19937& rng, int interior, const std::string& what,
-              CheckCounts& counts) {
-  const uint32_t level = map.level();
-  for (uint32_t i = 0; i < map.size(); ++i) {
-    const State s = map.get(i);
-    if (!isKnown(s)) {
-      ++counts.unknown;
-      continue;
-    }
-    ++counts.known;
-    for (const auto& [b1, b2] : pointsIn(i, level, rng, interior)) {
-      float S, T;
-      interpolateUV(uv, b1, b2, S, T);
-      const bool ref = refAlpha(tex, smp, S, T) >= cutoff;
-      const bool lib = alphaTestPasses(sampleAlpha(tex, smp, S, T), cutoff);
-      const State traced = map.get(baryToIndex(b1, b2, level));
-      ++counts.points;
-      const bool bad =
-          ref != (s == State::Opaque) || lib != ref || (isKnown(traced) && (traced == State::Opaque) != ref);
-      if (bad && ++counts.failures <= 5)
-        ADD_FAILURE() << what << ": micro-triangle " << i << " (level " << level << ") is " << int(s)
-                      << " but the alpha test at bary (" << b1 << ", " << b2 << ") uv (" << S << ", " << T
-                      << ") gives ref " << ref << " lib " << lib << ", traced state " << int(traced);
-    }
-  }
-}
 
 struct Tri {
   const char* name;

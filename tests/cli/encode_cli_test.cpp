@@ -5,7 +5,7 @@
 #include <random>
 #include <string>
 
-#include "cli/cli_helpers.h"
+#include "cli_util.h"
 #include "somm/encode.h"
 #include "somm/somm_file.h"
 #include "somm_test_arrays.h"
@@ -59,7 +59,7 @@ TEST(CliEncode, QueryAnswersFromEveryEncoding) {
     input += buf;
     uv.emplace_back(u, v);
   }
-  testing::writeText(dir / "uv.txt", input);
+  testing::writeFile(dir / "uv.txt", input);
   for (uint32_t g = 0; g < 2; ++g)
     for (uint32_t t : {0u, 7u, 42u, 299u}) {
       std::string want;
@@ -86,7 +86,7 @@ TEST(CliEncode, QueryErrors) {
   f.geometries[0].extra.erase(f.geometries[0].extra.begin() + 2);  // no rank in geometry 0
   f.geometries[1].extra[0].bytes[0] ^= 0xff;                       // corrupt dfs in geometry 1
   const std::string p = writeFile(dir, f);
-  testing::writeText(dir / "uv.txt", "0.1 0.2\n");
+  testing::writeFile(dir / "uv.txt", "0.1 0.2\n");
   RunResult r = runSomm(dir, "query " + shellQuote(p) + " -g 0 -t 0 --encoding rank", dir / "uv.txt");
   EXPECT_EQ(r.exitCode, 1);
   EXPECT_NE(r.err.find("stores no 'rank' encoding"), std::string::npos) << r.err;
@@ -154,7 +154,7 @@ TEST(CliEncode, CompareTableJsonAndPlot) {
   EXPECT_EQ(j["rows"][0]["format"], 2);
   EXPECT_EQ(j["rows"][3]["level"], 5);
   EXPECT_EQ(j["rows"][3]["format"], 4);
-  const std::string png = testing::readText(dir / "plot.png");
+  const std::string png = testing::readFile(dir / "plot.png");
   ASSERT_GT(png.size(), 8u);
   EXPECT_EQ(png.substr(1, 3), "PNG");
   r = runSomm(dir, "compare procedural:leaf-cards:6 --levels 2,13");

@@ -4,7 +4,7 @@
 #include <nlohmann/json.hpp>
 #include <random>
 
-#include "cli/cli_helpers.h"
+#include "cli_util.h"
 #include "somm/somm_file.h"
 #include "somm_test_arrays.h"
 
@@ -14,11 +14,16 @@ namespace {
 using testing::RunResult;
 using testing::runSomm;
 using testing::sampleFile;
-using testing::shellQuote;
 using testing::TempDir;
 
+std::string shellQuote(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
 std::string writeSample(const TempDir& dir, const SommFile& f, const std::string& name = "in.somm") {
-  const std::string p = dir / name;
+  const std::string p = dir.file(name);
   const Status s = writeSommFile(p, f);
   EXPECT_TRUE(s.ok()) << (s.ok() ? "" : s.error().message);
   return p;
@@ -28,7 +33,7 @@ TEST(CliInfo, JsonMatchesTheArrays) {
   TempDir dir;
   const SommFile f = sampleFile(200, 21);
   const std::string p = writeSample(dir, f);
-  const RunResult r = runSomm(dir, "info " + shellQuote(p) + " --json");
+  const RunResult r = runSomm("info " + shellQuote(p) + " --json");
   ASSERT_EQ(r.exitCode, 0) << r.err;
   EXPECT_TRUE(r.err.empty()) << r.err;
   const nlohmann::json j = nlohmann::json::parse(r.out);
@@ -99,7 +104,7 @@ TEST(CliInfo, JsonMatchesTheArrays) {
 TEST(CliInfo, TextNamesGeometries) {
   TempDir dir;
   const std::string p = writeSample(dir, sampleFile(20, 2));
-  const RunResult r = runSomm(dir, "info " + shellQuote(p));
+  const RunResult r = runSomm("info " + shellQuote(p));
   ASSERT_EQ(r.exitCode, 0) << r.err;
   EXPECT_NE(r.out.find("geometry 0 'leaves'"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("geometry 2 'empty' (material 'empty-material'): 0 triangles"), std::string::npos)
@@ -130,12 +135,9 @@ TEST(CliQuery, MatchesStateUV) {
         expected += char('0' + int(s));
         expected += '\n';
       }
-      const std::string in = dir / "in.txt";
-      testing::writeText(in, input);
       const RunResult r = runSomm(
-          dir,
           "query " + shellQuote(p) + " --geometry " + std::to_string(g) + " --triangle " + std::to_string(t),
-          in);
+          input);
       ASSERT_EQ(r.exitCode, 0) << r.err;
       ASSERT_EQ(r.out, expected) << "geometry " << g << " triangle " << t;
     }
@@ -145,15 +147,14 @@ TEST(CliQuery, MatchesStateUV) {
 TEST(CliQuery, Errors) {
   TempDir dir;
   const std::string p = writeSample(dir, sampleFile(10, 1));
-  RunResult r = runSomm(dir, "query " + shellQuote(p) + " --geometry 3 --triangle 0");
+  RunResult r = runSomm("query " + shellQuote(p) + " --geometry 3 --triangle 0");
   EXPECT_EQ(r.exitCode, 2);
   EXPECT_NE(r.err.find("--geometry 3 is out of range"), std::string::npos) << r.err;
-  r = runSomm(dir, "query " + shellQuote(p) + " --geometry 1 --triangle 10");
+  r = runSomm("query " + shellQuote(p) + " --geometry 1 --triangle 10");
   EXPECT_EQ(r.exitCode, 2);
   EXPECT_NE(r.err.find("--triangle 10 is out of range: geometry 1 has 10 triangles"), std::string::npos)
       << r.err;
-  testing::writeText(dir / "bad.txt", "0.1 0.2\n0.3 x\n");
-  r = runSomm(dir, "query " + shellQuote(p) + " --geometry 0 --triangle 0", dir / "bad.txt");
+  r = runSomm("query " + shellQuote(p) + " --geometry 0 --triangle 0", "0.1 0.2\n0.3 x\n");
   EXPECT_EQ(r.exitCode, 2);
   EXPECT_NE(r.err.find("stdin line 2"), std::string::npos) << r.err;
   EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1);
@@ -162,31 +163,32 @@ TEST(CliQuery, Errors) {
 TEST(CliFile, CorruptAndTruncatedFilesAreRejected) {
   TempDir dir;
   const std::string p = writeSample(dir, sampleFile(25, 4));
-  const std::string bytes = testing::readText(p);
-  const std::string cut = dir / "cut.somm", flipped = dir / "flip.somm", foreign = dir / "foreign.somm";
-  testing::writeText(cut, bytes.substr(0, bytes.size() / 2));
+  const std::string bytes = testing::readFile(p);
+  const std::string cut = dir.file("cut.somm"), flipped = dir.file("flip.somm"),
+                    foreign = dir.file("foreign.somm");
+  testing::writeFile(cut, bytes.substr(0, bytes.size() / 2));
   std::string f = bytes;
   f[f.size() / 3] ^= 0x10;
-  testing::writeText(flipped, f);
-  testing::writeText(foreign, "glTF not a somm file at all");
+  testing::writeFile(flipped, f);
+  testing::writeFile(foreign, "glTF not a somm file at all");
   const struct {
     std::string path, needle;
   } cases[] = {{cut, "truncated"},
                {flipped, "checksum mismatch"},
                {foreign, "not a .somm file"},
-               {dir / "missing.somm", "cannot open"}};
+               {dir.file("missing.somm"), "cannot open"}};
   for (const auto& c : cases)
     for (const std::string cmd : {"info", "query", "export"}) {
       std::string args = cmd + " " + shellQuote(c.path);
       if (cmd == "query") args += " --geometry 0 --triangle 0";
-      if (cmd == "export") args += " --dir " + shellQuote(dir / "exp");
-      const RunResult r = runSomm(dir, args);
+      if (cmd == "export") args += " --dir " + shellQuote(dir.file("exp"));
+      const RunResult r = runSomm(args);
       EXPECT_EQ(r.exitCode, 1) << args;
       EXPECT_EQ(r.err.rfind("somm " + cmd + ": " + c.path + ": ", 0), 0u) << r.err;
       EXPECT_NE(r.err.find(c.needle), std::string::npos) << r.err;
       EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
       EXPECT_TRUE(r.out.empty()) << r.out;
-      EXPECT_FALSE(std::filesystem::exists(dir / "exp"));
+      EXPECT_FALSE(std::filesystem::exists(dir.file("exp")));
     }
 }
 
@@ -194,17 +196,17 @@ TEST(CliExport, WritesTheSpecBuffers) {
   TempDir dir;
   const SommFile f = sampleFile(60, 12);
   const std::string p = writeSample(dir, f);
-  const std::string out = dir / "export";
-  const RunResult r = runSomm(dir, "export " + shellQuote(p) + " --dir " + shellQuote(out));
+  const std::string out = dir.file("export");
+  const RunResult r = runSomm("export " + shellQuote(p) + " --dir " + shellQuote(out));
   ASSERT_EQ(r.exitCode, 0) << r.err;
   for (size_t g = 0; g < f.geometries.size(); ++g) {
     const OmmArray& a = f.geometries[g].flat;
     const std::string sub = out + "/geometry-" + std::to_string(g) + "/";
     auto asBytes = [](const std::string& s) { return std::vector<uint8_t>(s.begin(), s.end()); };
-    EXPECT_EQ(asBytes(testing::readText(sub + "data.bin")), a.data);
-    EXPECT_EQ(asBytes(testing::readText(sub + "triangles.bin")), a.descriptorBytes());
-    EXPECT_EQ(asBytes(testing::readText(sub + "index.bin")), a.indexBufferBytes());
-    const nlohmann::json u = nlohmann::json::parse(testing::readText(sub + "usage.json"));
+    EXPECT_EQ(asBytes(testing::readFile(sub + "data.bin")), a.data);
+    EXPECT_EQ(asBytes(testing::readFile(sub + "triangles.bin")), a.descriptorBytes());
+    EXPECT_EQ(asBytes(testing::readFile(sub + "index.bin")), a.indexBufferBytes());
+    const nlohmann::json u = nlohmann::json::parse(testing::readFile(sub + "usage.json"));
     EXPECT_EQ(u["format"], f.geometries[g].info.format == Format::TwoState ? 2 : 4);
     EXPECT_EQ(u["index_type"], "uint16");
     EXPECT_EQ(u["index_stride"], 2);

@@ -450,6 +450,16 @@ TEST(Gltf, MalformedFilesGiveErrors) {
       {"view offset past end", [](GltfBuilder& b) { b.j["bufferViews"][1]["byteOffset"] = 1u << 30; }},
       {"accessor count", [](GltfBuilder& b) { b.j["accessors"][0]["count"] = 1000; }},
       {"accessor huge count", [](GltfBuilder& b) { b.j["accessors"][1]["count"] = 1ull << 62; }},
+      {"dataless huge accessor",
+       [](GltfBuilder& b) {
+         b.j["accessors"][0].erase("bufferView");
+         b.j["accessors"][0]["count"] = 1u << 30;
+       }},
+      {"negative cutoff", [](GltfBuilder& b) { b.j["materials"][0]["alphaCutoff"] = -0.5; }},
+      {"infinite factor",
+       [](GltfBuilder& b) {
+         b.j["materials"][0]["pbrMetallicRoughness"]["baseColorFactor"] = {1, 1, 1, 1e300};
+       }},
       {"accessor offset", [](GltfBuilder& b) { b.j["accessors"][2]["byteOffset"] = 2; }},
       {"accessor missing view", [](GltfBuilder& b) { b.j["accessors"][0]["bufferView"] = 17; }},
       {"missing accessor", [](GltfBuilder& b) { b.j["meshes"][0]["primitives"][0]["indices"] = 99; }},
@@ -593,6 +603,99 @@ TEST(SceneFiles, UnknownExtensionAndMissingFile) {
   EXPECT_EQ(r2.error().code, somm::ErrorCode::UnsupportedFormat);
   auto r3 = somm::loadScene(dir.file(""));
   EXPECT_FALSE(r3.ok());
+}
+
+}  // namespace
+
+namespace {
+
+TEST(Gltf, RequiredExtensions) {
+  TempDir dir;
+  GltfBuilder b = quadGltf();
+  maskMaterial(b, b.imageDataUri(topOpaqueImage()));
+  b.j["extensionsUsed"] = {"KHR_draco_mesh_compression", "KHR_texture_transform"};
+  b.j["extensionsRequired"] = {"KHR_texture_transform", "KHR_materials_unlit"};
+  b.writeGltf(dir.file("ok.gltf"));
+  auto r = somm::loadScene(dir.file("ok.gltf"));
+  EXPECT_TRUE(r.ok()) << r.error().message;
+  b.j["extensionsRequired"] = {"KHR_draco_mesh_compression"};
+  b.writeGltf(dir.file("draco.gltf"));
+  auto r2 = somm::loadScene(dir.file("draco.gltf"));
+  ASSERT_FALSE(r2.ok());
+  EXPECT_EQ(r2.error().code, somm::ErrorCode::UnsupportedFormat);
+  EXPECT_NE(r2.error().message.find("KHR_draco_mesh_compression"), std::string::npos);
+}
+
+TEST(Gltf, MissingUvSetOfAlphaTextureWarns) {
+  TempDir dir;
+  GltfBuilder b = quadGltf();
+  maskMaterial(b, b.imageDataUri(topOpaqueImage()));
+  b.j["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["texCoord"] = 2;
+  b.writeGltf(dir.file("uv.gltf"));
+  auto r = somm::loadScene(dir.file("uv.gltf"));
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_EQ(r->geometries[0].uvs, std::vector<float>(8, 0.0f));
+  ASSERT_EQ(r->warnings.size(), 1u);
+  EXPECT_NE(r->warnings[0].find("TEXCOORD_2"), std::string::npos);
+}
+
+// Random byte mutations of valid files: loading must fail cleanly or succeed with consistent data, never
+// crash (run under ASan/UBSan in CI).
+TEST(SceneFiles, MutatedFilesNeverCrash) {
+  TempDir dir;
+  GltfBuilder b = quadGltf();
+  maskMaterial(b, b.imageInBuffer(topOpaqueImage()));
+  b.writeGlb(dir.file("ok.glb"));
+  b.writeGltf(dir.file("ok.gltf"));
+  scenetest::writeFile(dir.file("ok.obj"),
+                       "mtllib ok.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+                       "usemtl leaf\nf 1/1 2/2 3/3 4/4\nf 4/4 3/3 2/2\n");
+  scenetest::writePng8(dir.file("t.png"), 2, 2, 2, {0, 0, 255, 255, 0, 128, 7, 9});
+  scenetest::writeFile(dir.file("ok.mtl"), "newmtl leaf\nmap_d -clamp on t.png\n");
+  uint64_t state = 12345;
+  auto next = [&]() {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return uint32_t(state >> 33);
+  };
+  for (const char* name : {"ok.glb", "ok.gltf", "ok.obj"}) {
+    const std::vector<uint8_t> orig = scenetest::readBytes(dir.file(name));
+    const std::string ext = std::string(name).substr(2);
+    for (int iter = 0; iter < 150; ++iter) {
+      std::vector<uint8_t> m = orig;
+      const int edits = 1 + int(next() % 4);
+      for (int e = 0; e < edits; ++e) {
+        const size_t pos = next() % m.size();
+        switch (next() % 3) {
+          case 0:
+            m[pos] = uint8_t(next());
+            break;
+          case 1:
+            m[pos] = "0123456789-.e,[]{}\":"[next() % 20];
+            break;
+          default:
+            m.resize(pos + 1);
+            break;
+        }
+      }
+      const std::string path = dir.file("mut" + ext);
+      scenetest::writeBytes(path, m);
+      auto r = somm::loadScene(path);
+      if (!r.ok()) {
+        EXPECT_EQ(r.error().message.find('\n'), std::string::npos);
+        continue;
+      }
+      for (const auto& g : r->geometries) {
+        ASSERT_EQ(g.positions.size() / 3 * 2, g.uvs.size());
+        for (uint32_t i : g.indices) ASSERT_LT(i, g.positions.size() / 3);
+        ASSERT_LT(g.material, r->materials.size());
+      }
+      for (const auto& inst : r->instances) ASSERT_LT(inst.geometry, r->geometries.size());
+      for (const auto& mat : r->materials)
+        if (mat.alpha) {
+          ASSERT_EQ(mat.alpha->alpha.size(), size_t(mat.alpha->width) * mat.alpha->height);
+        }
+    }
+  }
 }
 
 }  // namespace

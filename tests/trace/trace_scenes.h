@@ -12,7 +12,7 @@ namespace somm::testing {
 
 // A leaf-shaped alpha: 1 inside a lobed ellipse, 0 outside, a soft rim of intermediate values; `size`²
 // texels.
-inline std::shared_ptr<AlphaTexture> leafAlpha(uint32_t size) {
+inline std::shared_ptr<AlphaTexture> leafAlpha(uint32_t size, bool specks = true) {
   auto t = std::make_shared<AlphaTexture>();
   t->width = t->height = size;
   t->alpha.resize(size_t(size) * size);
@@ -22,7 +22,7 @@ inline std::shared_ptr<AlphaTexture> leafAlpha(uint32_t size) {
       const float ang = std::atan2(v, u);
       const float r = std::sqrt(u * u / 0.45f + v * v) / (0.85f + 0.12f * std::sin(7 * ang));
       float a = std::clamp((1.0f - r) * 12.0f + 0.5f, 0.0f, 1.0f);
-      if ((x * 7 + y * 13) % 211 == 0) a = 1.0f - a;  // specks: single texels of the other class
+      if (specks && (x * 7 + y * 13) % 211 == 0) a = 1.0f - a;  // specks: single texels of the other class
       t->alpha[size_t(y) * size + x] = a;
     }
   return t;
@@ -54,7 +54,7 @@ struct Rng {
 // `cards` alpha-tested quads (linear filter, repeat; some with UVs tiled ×2) scattered in a box in front of
 // the camera, an opaque ground, and one nearest/clamp-sampled card geometry instanced twice. Geometries: 0
 // cards, 1 ground, 2 instanced card.
-inline Scene makeCardScene(uint32_t cards, uint64_t seed = 1, uint32_t texSize = 64) {
+inline Scene makeCardScene(uint32_t cards, uint64_t seed = 1, uint32_t texSize = 64, bool specks = true) {
   Scene s;
   s.sourcePath = "procedural-cards";
   Material leaf;
@@ -62,7 +62,7 @@ inline Scene makeCardScene(uint32_t cards, uint64_t seed = 1, uint32_t texSize =
   leaf.alphaMode = AlphaMode::Mask;
   leaf.alphaCutoff = 0.5f;
   leaf.doubleSided = true;
-  leaf.alpha = leafAlpha(texSize);
+  leaf.alpha = leafAlpha(texSize, specks);
   leaf.baseColor = leafColor(texSize);
   leaf.sampler = Sampler{Wrap::Repeat, Wrap::Repeat, Filter::Linear};
   Material ground;

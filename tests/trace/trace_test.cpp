@@ -196,7 +196,7 @@ TEST(TraceRender, StateOverlayColoursByState) {
   size_t green = 0, red = 0;
   for (size_t i = 0; i < r.image.rgba.size(); i += 4) {
     const int R = r.image.rgba[i], G = r.image.rgba[i + 1], B = r.image.rgba[i + 2];
-    green += G > 2 * R && G > 2 * B;
+    green += 10 * G > 14 * R && 10 * G > 14 * B;
     red += R > G && R > 2 * B && R > 60;
   }
   EXPECT_GT(green, 50u);

@@ -60,7 +60,7 @@ int run(const Options& o) {
     if (b.empty() || !nextToken(rest).empty() || !parseFloat(a, u) || !parseFloat(b, v)) {
       out.flush();
       printError("query", "stdin line " + std::to_string(in.lineNumber()) +
-                              ": expected two floats 'u v', got '" + std::string(line.substr(0, 80)) + "'");
+                              ": expected two floats 'u v', got '" + excerpt(line) + "'");
       return kExitUsage;
     }
     somm::State s = array.stateUV(t, u, v);

@@ -6,6 +6,7 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <cstdlib>
 #include <string>
 #include <string_view>
 
@@ -17,6 +18,16 @@ namespace somm::cli {
 inline constexpr int kExitOk = 0;
 inline constexpr int kExitFailure = 1;   // the operation failed (I/O, corrupt or unsupported input file)
 inline constexpr int kExitUsage = 2;     // bad command line or malformed text input
+
+// CLI::Range lets NaN through (every comparison with NaN is false): add `& NotNan` to float range checks.
+inline const CLI::Validator NotNan(
+    [](std::string& s) {
+      const char* b = s.c_str();
+      char* e = nullptr;
+      const double v = std::strtod(b, &e);
+      return v != v ? std::string("Value " + s + " is not a number") : std::string();
+    },
+    "", "NotNan");
 
 using SetupFn = void (*)(CLI::App& root);
 

@@ -1,0 +1,96 @@
+// Fuzz target: the .somm reader (parseSomm). Each input is parsed twice: as is (exercising the magic,
+// version, size and checksum checks) and with every checksum and the declared size recomputed, so that
+// mutations reach the structural validation behind the checksums. A parsed file must be internally valid:
+// every lookup a ray tracer or `somm query` can make stays inside the buffers, and serialising it gives a
+// file that parses to the same bytes.
+#include <xxhash.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <span>
+#include <vector>
+
+#include "somm/somm_file.h"
+
+namespace {
+
+[[noreturn]] void fail(const char* what, const std::string& detail = "") {
+  std::fprintf(stderr, "fuzz_somm_file: %s %s\n", what, detail.c_str());
+  std::abort();
+}
+
+uint64_t load64(const uint8_t* p) {
+  uint64_t v = 0;
+  for (int i = 0; i < 8; ++i) v |= uint64_t(p[i]) << (8 * i);
+  return v;
+}
+void store64(uint8_t* p, uint64_t v) {
+  for (int i = 0; i < 8; ++i) p[i] = uint8_t(v >> (8 * i));
+}
+
+// Recomputes the header's declared size and checksum and every chunk checksum it can reach
+// (docs/somm-format.md: 32-byte header, then chunks of a 24-byte header {type, geometry, size u64, checksum
+// u64} + payload padded to 8).
+void fixChecksums(std::vector<uint8_t>& b) {
+  if (b.size() < 32) return;
+  store64(b.data() + 16, b.size());
+  store64(b.data() + 24, XXH3_64bits(b.data(), 24));
+  size_t off = 32;
+  while (b.size() - off >= 24) {
+    uint8_t* h = b.data() + off;
+    const uint64_t size = load64(h + 8);
+    if (size > b.size() - off - 24) break;
+    store64(h + 16, XXH3_64bits_withSeed(h + 24, size_t(size), XXH3_64bits(h, 16)));
+    off += 24 + ((size_t(size) + 7) & ~size_t(7));
+    if (off > b.size()) break;
+  }
+}
+
+void checkParsed(const somm::SommFile& f) {
+  for (const somm::SommGeometry& g : f.geometries) {
+    const somm::OmmArray& a = g.flat;
+    if (!somm::validateOmmArray(a, "fuzz").ok()) fail("a parsed geometry does not validate");
+    if (a.indices.size() != g.info.triangleCount) fail("triangle count differs from the index buffer");
+    // Every lookup `somm query` can make: each triangle, its first and last micro-triangle, and a few (u, v).
+    for (uint32_t t = 0; t < a.indices.size(); ++t) {
+      const int32_t i = a.indices[t];
+      uint32_t level = 0;
+      if (i >= 0) level = a.descriptors[size_t(i)].subdivisionLevel;
+      volatile uint32_t sink = 0;
+      sink = sink + uint32_t(a.state(t, 0)) + uint32_t(a.state(t, somm::microTriangleCount(level) - 1));
+      sink = sink + uint32_t(a.stateUV(t, 0.3f, 0.6f)) + uint32_t(a.stateUV(t, 1.0f, 1.0f));
+    }
+  }
+  const auto bytes = somm::serializeSomm(f);
+  if (!bytes.ok()) fail("a parsed file does not serialise:", bytes.error().message);
+  const auto again = somm::parseSomm(*bytes, "fuzz-roundtrip.somm");
+  if (!again.ok()) fail("a serialised file does not parse:", again.error().message);
+  const auto bytes2 = somm::serializeSomm(*again);
+  if (!bytes2.ok() || *bytes2 != *bytes) fail("serialise(parse(serialise(f))) differs");
+}
+
+void checkError(const somm::Error& e, const char* name) {
+  if (e.message.rfind(name, 0) != 0) fail("error message does not start with the file name:", e.message);
+  if (e.message.find('\n') != std::string::npos) fail("error message is not one line:", e.message);
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  const auto raw = somm::parseSomm(std::span<const uint8_t>(data, size), "raw.somm");
+  if (raw.ok())
+    checkParsed(*raw);
+  else
+    checkError(raw.error(), "raw.somm");
+  std::vector<uint8_t> fixed(data, data + size);
+  fixChecksums(fixed);
+  const auto r = somm::parseSomm(fixed, "fixed.somm");
+  if (r.ok())
+    checkParsed(*r);
+  else
+    checkError(r.error(), "fixed.somm");
+  return 0;
+}

@@ -1,0 +1,278 @@
+// somm — writing a Scene as a self-contained .glb (for procedural scenes on disk: CLI tests, demos,
+// benchmarks).
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <system_error>
+
+#include "somm/scene.h"
+
+// Exported by the Debian libstb (stb_image_write's zlib compressor) but only declared inside its
+// implementation section.
+extern "C" unsigned char* stbi_zlib_compress(unsigned char* data, int data_len, int* out_len, int quality);
+
+namespace somm {
+
+namespace {
+
+void put32be(std::vector<uint8_t>& v, uint32_t x) {
+  for (int s = 24; s >= 0; s -= 8) v.push_back(uint8_t(x >> s));
+}
+
+uint32_t crc32(const uint8_t* p, size_t n) {
+  static uint32_t table[256];
+  static bool init = [] {
+    for (uint32_t i = 0; i < 256; ++i) {
+      uint32_t c = i;
+      for (int k = 0; k < 8; ++k) c = (c >> 1) ^ (0xEDB88320u & (0u - (c & 1u)));
+      table[i] = c;
+    }
+    return true;
+  }();
+  (void)init;
+  uint32_t c = 0xFFFFFFFFu;
+  for (size_t i = 0; i < n; ++i) c = table[(c ^ p[i]) & 0xFF] ^ (c >> 8);
+  return ~c;
+}
+
+// 16-bit RGBA PNG (zlib via stb_image_write's compressor).
+Result<std::vector<uint8_t>> encodePng16(uint32_t w, uint32_t h, const std::vector<uint16_t>& rgba) {
+  std::vector<uint8_t> raw;
+  raw.reserve(size_t(h) * (1 + size_t(w) * 8));
+  for (uint32_t y = 0; y < h; ++y) {
+    raw.push_back(0);
+    for (size_t i = 0; i < size_t(w) * 4; ++i) {
+      const uint16_t v = rgba[size_t(y) * w * 4 + i];
+      raw.push_back(uint8_t(v >> 8));
+      raw.push_back(uint8_t(v & 0xFF));
+    }
+  }
+  if (raw.size() > size_t(INT32_MAX))
+    return makeError(ErrorCode::LimitExceeded, "texture too large to encode");
+  int zlen = 0;
+  unsigned char* z = stbi_zlib_compress(raw.data(), int(raw.size()), &zlen, 8);
+  if (!z) return makeError(ErrorCode::IoError, "PNG compression failed");
+  std::vector<uint8_t> png = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+  auto chunk = [&](const char* type, const uint8_t* data, size_t n) {
+    put32be(png, uint32_t(n));
+    const size_t start = png.size();
+    png.insert(png.end(), type, type + 4);
+    png.insert(png.end(), data, data + n);
+    put32be(png, crc32(png.data() + start, n + 4));
+  };
+  std::vector<uint8_t> ihdr;
+  put32be(ihdr, w);
+  put32be(ihdr, h);
+  ihdr.insert(ihdr.end(), {16, 6, 0, 0, 0});
+  chunk("IHDR", ihdr.data(), ihdr.size());
+  chunk("IDAT", z, size_t(zlen));
+  std::free(z);
+  chunk("IEND", nullptr, 0);
+  return png;
+}
+
+int wrapCode(Wrap w) {
+  return w == Wrap::ClampToEdge ? 33071 : w == Wrap::MirroredRepeat ? 33648 : 10497;
+}
+
+}  // namespace
+
+Status writeGlb(const Scene& scene, const std::string& path) {
+  using nlohmann::json;
+  auto fail = [&](ErrorCode c, const std::string& what) -> Error { return makeError(c, path + ": " + what); };
+  std::vector<uint8_t> bin;
+  json j;
+  j["asset"] = {{"version", "2.0"}, {"generator", "somm"}};
+  json views = json::array(), accessors = json::array();
+  auto addView = [&](const void* data, size_t n) {
+    while (bin.size() % 4) bin.push_back(0);
+    const size_t off = bin.size();
+    bin.insert(bin.end(), static_cast<const uint8_t*>(data), static_cast<const uint8_t*>(data) + n);
+    views.push_back({{"buffer", 0}, {"byteOffset", off}, {"byteLength", n}});
+    return views.size() - 1;
+  };
+
+  json images = json::array(), textures = json::array(), samplers = json::array(), materials = json::array();
+  for (const Material& m : scene.materials) {
+    json jm = {{"name", m.name}, {"doubleSided", m.doubleSided}, {"alphaCutoff", m.alphaCutoff}};
+    jm["alphaMode"] = m.alphaMode == AlphaMode::Mask    ? "MASK"
+                      : m.alphaMode == AlphaMode::Blend ? "BLEND"
+                                                        : "OPAQUE";
+    json pbr = {{"metallicFactor", 0.0}};
+    std::array<float, 4> factor = m.baseColorFactor;
+    const AlphaTexture* a = m.alpha.get();
+    const ColorImage* c = m.baseColor.get();
+    if (a && (a->width == 0 || a->height == 0 || a->alpha.size() != size_t(a->width) * a->height))
+      return fail(ErrorCode::InvalidArgument, "material '" + m.name + "' has an inconsistent alpha texture");
+    if (c && c->rgba.size() != size_t(c->width) * c->height * 4) c = nullptr;
+    if (a || c) {
+      const uint32_t w = a ? a->width : c->width, h = a ? a->height : c->height;
+      const bool useColor = c && c->width == w && c->height == h;
+      std::vector<uint16_t> px(size_t(w) * h * 4);
+      for (size_t i = 0; i < size_t(w) * h; ++i) {
+        for (int k = 0; k < 3; ++k)
+          px[i * 4 + size_t(k)] = useColor ? uint16_t(c->rgba[i * 4 + size_t(k)] * 257) : 65535;
+        if (a) {
+          const float v = a->alpha[i];
+          px[i * 4 + 3] =
+              std::isfinite(v) ? uint16_t(std::lround(std::clamp(double(v), 0.0, 1.0) * 65535.0)) : 0;
+        } else {
+          px[i * 4 + 3] = useColor ? uint16_t(c->rgba[i * 4 + 3] * 257) : 65535;
+        }
+      }
+      auto png = encodePng16(w, h, px);
+      if (!png.ok()) return fail(png.error().code, "material '" + m.name + "': " + png.error().message);
+      images.push_back({{"bufferView", addView(png->data(), png->size())}, {"mimeType", "image/png"}});
+      samplers.push_back({{"magFilter", m.sampler.filter == Filter::Nearest ? 9728 : 9729},
+                          {"minFilter", m.sampler.filter == Filter::Nearest ? 9728 : 9729},
+                          {"wrapS", wrapCode(m.sampler.wrapS)},
+                          {"wrapT", wrapCode(m.sampler.wrapT)}});
+      textures.push_back({{"source", images.size() - 1}, {"sampler", samplers.size() - 1}});
+      pbr["baseColorTexture"] = {{"index", textures.size() - 1}};
+      if (a) factor[3] = 1.0f;  // the alpha factor is already in the texture
+    }
+    pbr["baseColorFactor"] = {factor[0], factor[1], factor[2], factor[3]};
+    jm["pbrMetallicRoughness"] = pbr;
+    materials.push_back(std::move(jm));
+  }
+
+  json meshes = json::array();
+  for (size_t gi = 0; gi < scene.geometries.size(); ++gi) {
+    const Geometry& g = scene.geometries[gi];
+    const size_t n = g.positions.size() / 3;
+    if (g.positions.size() != n * 3 || g.uvs.size() != n * 2 || g.indices.size() % 3 != 0 ||
+        g.material >= scene.materials.size())
+      return fail(ErrorCode::InvalidArgument, "geometry " + std::to_string(gi) + " is inconsistent");
+    for (uint32_t i : g.indices)
+      if (i >= n)
+        return fail(ErrorCode::InvalidArgument,
+                    "geometry " + std::to_string(gi) + " has an index out of range");
+    json attrs = json::object();
+    if (n == 0) {
+      // Empty geometry (e.g. a skipped primitive): one point keeps the mesh valid and the numbering intact.
+      const float origin[3] = {0, 0, 0};
+      accessors.push_back({{"bufferView", addView(origin, 12)},
+                           {"componentType", 5126},
+                           {"count", 1},
+                           {"type", "VEC3"},
+                           {"min", {0, 0, 0}},
+                           {"max", {0, 0, 0}}});
+      attrs["POSITION"] = accessors.size() - 1;
+      meshes.push_back(
+          {{"name", g.name},
+           {"primitives", json::array({{{"attributes", attrs}, {"material", g.material}, {"mode", 0}}})}});
+      continue;
+    }
+    std::array<float, 3> lo{0, 0, 0}, hi{0, 0, 0};
+    for (size_t v = 0; v < n; ++v)
+      for (int k = 0; k < 3; ++k) {
+        const float x = g.positions[v * 3 + size_t(k)];
+        if (!std::isfinite(x)) continue;
+        lo[size_t(k)] = v == 0 ? x : std::min(lo[size_t(k)], x);
+        hi[size_t(k)] = v == 0 ? x : std::max(hi[size_t(k)], x);
+      }
+    accessors.push_back({{"bufferView", addView(g.positions.data(), g.positions.size() * 4)},
+                         {"componentType", 5126},
+                         {"count", n},
+                         {"type", "VEC3"},
+                         {"min", lo},
+                         {"max", hi}});
+    attrs["POSITION"] = accessors.size() - 1;
+    accessors.push_back({{"bufferView", addView(g.uvs.data(), g.uvs.size() * 4)},
+                         {"componentType", 5126},
+                         {"count", n},
+                         {"type", "VEC2"}});
+    attrs["TEXCOORD_0"] = accessors.size() - 1;
+    json prim = {{"attributes", attrs}, {"material", g.material}, {"mode", 4}};
+    if (!g.indices.empty()) {
+      accessors.push_back({{"bufferView", addView(g.indices.data(), g.indices.size() * 4)},
+                           {"componentType", 5125},
+                           {"count", g.indices.size()},
+                           {"type", "SCALAR"}});
+      prim["indices"] = accessors.size() - 1;
+    }
+    const std::string slashTail = "/0";
+    std::string name = g.name;
+    if (name.size() >= 2 && name.compare(name.size() - 2, 2, slashTail) == 0) name.resize(name.size() - 2);
+    meshes.push_back({{"name", name}, {"primitives", json::array({prim})}});
+  }
+
+  json nodes = json::array(), roots = json::array();
+  for (const Instance& inst : scene.instances) {
+    if (inst.geometry >= scene.geometries.size())
+      return fail(ErrorCode::InvalidArgument, "an instance refers to a missing geometry");
+    nodes.push_back({{"mesh", inst.geometry}, {"matrix", inst.transform}});
+    roots.push_back(nodes.size() - 1);
+  }
+  if (scene.camera) {
+    const Camera& c = *scene.camera;
+    auto norm = [](std::array<double, 3> v) {
+      const double l = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+      if (l > 0) v = {v[0] / l, v[1] / l, v[2] / l};
+      return v;
+    };
+    auto cross = [](const std::array<double, 3>& a, const std::array<double, 3>& b) {
+      return std::array<double, 3>{a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                                   a[0] * b[1] - a[1] * b[0]};
+    };
+    const auto z = norm(
+        {double(c.eye[0]) - c.target[0], double(c.eye[1]) - c.target[1], double(c.eye[2]) - c.target[2]});
+    const auto x = norm(cross({c.up[0], c.up[1], c.up[2]}, z));
+    const auto y = cross(z, x);
+    nodes.push_back(
+        {{"camera", 0},
+         {"matrix",
+          {x[0], x[1], x[2], 0, y[0], y[1], y[2], 0, z[0], z[1], z[2], 0, c.eye[0], c.eye[1], c.eye[2], 1}}});
+    roots.push_back(nodes.size() - 1);
+    j["cameras"] = {{{"type", "perspective"}, {"perspective", {{"yfov", c.yfovRadians}, {"znear", 0.01}}}}};
+  }
+  if (!materials.empty()) j["materials"] = materials;
+  if (!meshes.empty()) j["meshes"] = meshes;
+  if (!nodes.empty()) j["nodes"] = nodes;
+  j["scenes"] = {{{"nodes", roots}}};
+  j["scene"] = 0;
+  if (!images.empty()) j["images"] = images, j["textures"] = textures, j["samplers"] = samplers;
+  if (!accessors.empty()) j["accessors"] = accessors;
+  if (!views.empty()) j["bufferViews"] = views;
+  while (bin.size() % 4) bin.push_back(0);
+  j["buffers"] = {{{"byteLength", bin.size()}}};
+
+  std::string text = j.dump();
+  while (text.size() % 4) text += ' ';
+  const uint64_t total = 12 + 8 + text.size() + 8 + bin.size();
+  if (total > 0xFFFFFFFFu) return fail(ErrorCode::LimitExceeded, "scene too large for a .glb (4 GiB)");
+  std::vector<uint8_t> glb;
+  auto le32 = [&](uint32_t v) {
+    for (int s = 0; s < 32; s += 8) glb.push_back(uint8_t(v >> s));
+  };
+  le32(0x46546C67), le32(2), le32(uint32_t(total));
+  le32(uint32_t(text.size())), le32(0x4E4F534A);
+  glb.insert(glb.end(), text.begin(), text.end());
+  le32(uint32_t(bin.size())), le32(0x004E4942);
+  glb.insert(glb.end(), bin.begin(), bin.end());
+
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+    if (!f) return fail(ErrorCode::IoError, "cannot create file");
+    f.write(reinterpret_cast<const char*>(glb.data()), std::streamsize(glb.size()));
+    f.close();
+    if (!f) {
+      std::remove(tmp.c_str());
+      return fail(ErrorCode::IoError, "cannot write file");
+    }
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::remove(tmp.c_str());
+    return fail(ErrorCode::IoError, "cannot rename temporary file: " + ec.message());
+  }
+  return Ok{};
+}
+
+}  // namespace somm

@@ -1,0 +1,134 @@
+// writeGlb → loadScene round trips: same numbering, geometry, materials, samplers, alpha, instances and
+// camera.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "scene_test_util.h"
+#include "somm/procedural.h"
+#include "somm/scene.h"
+
+namespace {
+
+using scenetest::TempDir;
+
+void expectSameGeometry(const somm::Scene& a, const somm::Scene& b) {
+  ASSERT_EQ(a.geometries.size(), b.geometries.size());
+  for (size_t i = 0; i < a.geometries.size(); ++i) {
+    SCOPED_TRACE(i);
+    EXPECT_EQ(a.geometries[i].positions, b.geometries[i].positions);
+    EXPECT_EQ(a.geometries[i].uvs, b.geometries[i].uvs);
+    EXPECT_EQ(a.geometries[i].indices, b.geometries[i].indices);
+    EXPECT_EQ(a.geometries[i].material, b.geometries[i].material);
+  }
+  ASSERT_EQ(a.instances.size(), b.instances.size());
+  for (size_t i = 0; i < a.instances.size(); ++i) {
+    EXPECT_EQ(a.instances[i].geometry, b.instances[i].geometry);
+    EXPECT_EQ(a.instances[i].transform, b.instances[i].transform);
+  }
+  ASSERT_EQ(a.materials.size(), b.materials.size());
+  for (size_t i = 0; i < a.materials.size(); ++i) {
+    SCOPED_TRACE(a.materials[i].name);
+    const somm::Material &x = a.materials[i], &y = b.materials[i];
+    EXPECT_EQ(x.name, y.name);
+    EXPECT_EQ(x.alphaMode, y.alphaMode);
+    EXPECT_EQ(x.alphaCutoff, y.alphaCutoff);
+    EXPECT_EQ(x.doubleSided, y.doubleSided);
+    EXPECT_EQ(bool(x.alpha), bool(y.alpha));
+    if (x.alpha && y.alpha) {
+      EXPECT_EQ(x.sampler, y.sampler);
+    }
+  }
+}
+
+TEST(GlbWriter, LeafCardsRoundTripExactly) {
+  TempDir dir;
+  const somm::Scene s = somm::makeLeafCardScene(60, 5);
+  ASSERT_TRUE(somm::writeGlb(s, dir.file("cards.glb")).ok());
+  auto r = somm::loadScene(dir.file("cards.glb"));
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_TRUE(r->warnings.empty());
+  expectSameGeometry(s, *r);
+  EXPECT_EQ(r->geometries[0].name, "cards/0");
+  EXPECT_EQ(r->materials[0].alpha->alpha, s.materials[0].alpha->alpha);  // binary alpha: exact
+  ASSERT_TRUE(r->camera.has_value());
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_NEAR(r->camera->eye[size_t(k)], s.camera->eye[size_t(k)], 1e-6);
+    EXPECT_NEAR(r->camera->up[size_t(k)], s.camera->up[size_t(k)], 1e-6);
+  }
+  // target = eye + unit view direction: (0, 0, 3.5) looking at the origin → (0, 0, 2.5).
+  EXPECT_NEAR(r->camera->target[2], 2.5, 1e-6);
+  EXPECT_NEAR(r->camera->yfovRadians, s.camera->yfovRadians, 1e-7);
+}
+
+TEST(GlbWriter, QuadSamplersAndSoftAlpha) {
+  TempDir dir;
+  for (const somm::Sampler smp :
+       {somm::Sampler{somm::Wrap::ClampToEdge, somm::Wrap::MirroredRepeat, somm::Filter::Nearest},
+        somm::Sampler{somm::Wrap::MirroredRepeat, somm::Wrap::Repeat, somm::Filter::Linear}}) {
+    auto tex = std::make_shared<const somm::AlphaTexture>(somm::makeNoiseTexture(32, 9, 4));
+    const somm::Scene s = somm::makeQuadScene(tex, smp, 0.3f, {-1, -0.5f, 2, 3});
+    ASSERT_TRUE(somm::writeGlb(s, dir.file("q.glb")).ok());
+    auto r = somm::loadScene(dir.file("q.glb"));
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    expectSameGeometry(s, *r);
+    EXPECT_EQ(r->materials[0].sampler, smp);
+    const auto& a = r->materials[0].alpha->alpha;
+    ASSERT_EQ(a.size(), tex->alpha.size());
+    for (size_t i = 0; i < a.size(); ++i) EXPECT_NEAR(a[i], tex->alpha[i], 0.5 / 65535 + 1e-7);
+  }
+}
+
+TEST(GlbWriter, RealScenesRoundTrip) {
+  TempDir dir;
+  for (const char* f : {"/oak-tree/oaktree.gltf", "/alpha-blend-mode-test/AlphaBlendModeTest.gltf"}) {
+    SCOPED_TRACE(f);
+    auto a = somm::loadScene(std::string(SOMM_DATA_DIR) + f);
+    ASSERT_TRUE(a.ok()) << a.error().message;
+    ASSERT_TRUE(somm::writeGlb(*a, dir.file("r.glb")).ok());
+    auto b = somm::loadScene(dir.file("r.glb"));
+    ASSERT_TRUE(b.ok()) << b.error().message;
+    expectSameGeometry(*a, *b);
+    for (size_t i = 0; i < a->geometries.size(); ++i) EXPECT_EQ(a->geometries[i].name, b->geometries[i].name);
+    for (size_t i = 0; i < a->materials.size(); ++i) {
+      const somm::Material &x = a->materials[i], &y = b->materials[i];
+      if (x.alpha) {
+        EXPECT_EQ(x.alpha->alpha, y.alpha->alpha);  // 8-bit source alpha survives 16-bit storage exactly
+      }
+      ASSERT_EQ(bool(x.baseColor), bool(y.baseColor));
+      if (x.baseColor && !x.alpha) {
+        EXPECT_EQ(x.baseColor->rgba, y.baseColor->rgba);
+      }
+    }
+  }
+}
+
+TEST(GlbWriter, ErrorsAndAtomicity) {
+  TempDir dir;
+  const somm::Scene s = somm::makeLeafCardScene(3, 1);
+  auto st = somm::writeGlb(s, dir.file("no/such/dir/x.glb"));
+  ASSERT_FALSE(st.ok());
+  EXPECT_EQ(st.error().code, somm::ErrorCode::IoError);
+  EXPECT_NE(st.error().message.find("x.glb"), std::string::npos);
+  somm::Scene bad = s;
+  bad.geometries[0].indices.push_back(9999);
+  bad.geometries[0].indices.push_back(0);
+  bad.geometries[0].indices.push_back(0);
+  auto st2 = somm::writeGlb(bad, dir.file("bad.glb"));
+  ASSERT_FALSE(st2.ok());
+  EXPECT_EQ(st2.error().code, somm::ErrorCode::InvalidArgument);
+  EXPECT_FALSE(std::filesystem::exists(dir.file("bad.glb")));
+  EXPECT_FALSE(std::filesystem::exists(dir.file("bad.glb.tmp")));
+  // An empty geometry keeps its number.
+  somm::Scene e = s;
+  e.geometries.insert(e.geometries.begin(), somm::Geometry{"empty", 0, {}, {}, {}});
+  for (auto& inst : e.instances) ++inst.geometry;
+  ASSERT_TRUE(somm::writeGlb(e, dir.file("e.glb")).ok());
+  auto r = somm::loadScene(dir.file("e.glb"));
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_EQ(r->geometries.size(), 2u);
+  EXPECT_EQ(r->geometries[0].triangleCount(), 0u);
+  EXPECT_EQ(r->geometries[1].triangleCount(), 6u);
+}
+
+}  // namespace

@@ -1,0 +1,285 @@
+// OBJ/MTL loading: geometry numbering and fanning, the v flip, map_d / map_Kd alpha sources, -imfchan,
+// -clamp, image formats, missing textures and malformed files.
+#include <gtest/gtest.h>
+#include <stb_image.h>
+
+#include <cmath>
+
+#include "scene_test_util.h"
+#include "somm/scene.h"
+
+namespace {
+
+using scenetest::TempDir;
+using scenetest::writeFile;
+
+const somm::Sampler kNearest{somm::Wrap::Repeat, somm::Wrap::Repeat, somm::Filter::Nearest};
+
+const char* kQuadObj =
+    "mtllib q.mtl\n"
+    "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
+    "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+    "usemtl leaf\n"
+    "f 1/1 2/2 3/3 4/4\n";
+
+somm::Result<somm::Scene> loadQuad(const TempDir& dir, const std::string& mtlBody) {
+  writeFile(dir.file("q.obj"), kQuadObj);
+  writeFile(dir.file("q.mtl"), "newmtl leaf\nKd 0.5 0.25 1\n" + mtlBody);
+  return somm::loadScene(dir.file("q.obj"));
+}
+
+// 4×2 RGBA: top image row opaque, bottom row transparent.
+std::vector<uint8_t> topOpaque() {
+  std::vector<uint8_t> px;
+  for (int y = 0; y < 2; ++y)
+    for (int x = 0; x < 4; ++x)
+      px.insert(px.end(), {uint8_t(10 * x), uint8_t(100 + y), 7, uint8_t(y == 0 ? 255 : 0)});
+  return px;
+}
+
+TEST(Obj, QuadIsFannedAndUvsAreKept) {
+  TempDir dir;
+  auto r = loadQuad(dir, "");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_EQ(r->geometries.size(), 1u);
+  const somm::Geometry& g = r->geometries[0];
+  EXPECT_EQ(g.positions, (std::vector<float>{0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0}));
+  EXPECT_EQ(g.uvs, (std::vector<float>{0, 0, 1, 0, 1, 1, 0, 1}));
+  EXPECT_EQ(g.indices, (std::vector<uint32_t>{0, 1, 2, 0, 2, 3}));
+  const somm::Material& m = r->materials[g.material];
+  EXPECT_EQ(m.name, "leaf");
+  EXPECT_EQ(m.alphaMode, somm::AlphaMode::Opaque);  // no texture: opaque
+  EXPECT_FALSE(m.alpha);
+  EXPECT_EQ(m.baseColorFactor, (std::array<float, 4>{0.5f, 0.25f, 1.0f, 1.0f}));
+  ASSERT_EQ(r->instances.size(), 1u);
+  EXPECT_FALSE(r->camera.has_value());
+}
+
+// The same asymmetric image through OBJ (v = 0 at the bottom row) and glTF (v = 0 at the top row).
+TEST(Obj, VFlipAgainstGltf) {
+  TempDir dir;
+  scenetest::writePng8(dir.file("tex.png"), 4, 2, 4, topOpaque());
+  auto r = loadQuad(dir, "map_Kd tex.png\n");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  const somm::Material& m = r->materials[0];
+  EXPECT_EQ(m.alphaMode, somm::AlphaMode::Mask);  // map_Kd has alpha
+  EXPECT_EQ(m.alphaCutoff, 0.5f);
+  EXPECT_EQ(m.sampler, (somm::Sampler{somm::Wrap::Repeat, somm::Wrap::Repeat, somm::Filter::Linear}));
+  EXPECT_EQ(m.alphaSource, dir.file("tex.png"));
+  ASSERT_TRUE(m.alpha);
+  for (uint32_t x = 0; x < 4; ++x) {
+    EXPECT_EQ(m.alpha->at(x, 0), 0.0f);  // texture row 0 = v in [0, 1/2] = bottom image row
+    EXPECT_EQ(m.alpha->at(x, 1), 1.0f);
+  }
+  // OBJ: v near 1 is the top of the image (opaque).
+  EXPECT_EQ(somm::sampleAlpha(*m.alpha, kNearest, 0.6f, 0.9f), 1.0f);
+  EXPECT_EQ(somm::sampleAlpha(*m.alpha, kNearest, 0.6f, 0.1f), 0.0f);
+  // The colour image is flipped the same way: texture row 0 = image row 1 (green 101).
+  ASSERT_TRUE(m.baseColor);
+  EXPECT_EQ(m.baseColor->rgba[1], 101);
+  EXPECT_EQ(m.baseColor->rgba[(1 * 4 + 2) * 4 + 0], 20);
+  EXPECT_EQ(m.baseColor->rgba[(1 * 4 + 2) * 4 + 1], 100);
+
+  // glTF with the same image: v near 0 is the top of the image.
+  scenetest::GltfBuilder b = scenetest::quadGltf();
+  b.j["textures"] = {{{"source", b.imageFile("tex.png")}}};
+  b.j["materials"] = {{{"name", "leaf"},
+                       {"alphaMode", "MASK"},
+                       {"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}}};
+  b.writeGltf(dir.file("q.gltf"));
+  auto g = somm::loadScene(dir.file("q.gltf"));
+  ASSERT_TRUE(g.ok()) << g.error().message;
+  const somm::AlphaTexture& ga = *g->materials[0].alpha;
+  EXPECT_EQ(somm::sampleAlpha(ga, kNearest, 0.6f, 0.1f), 1.0f);
+  EXPECT_EQ(somm::sampleAlpha(ga, kNearest, 0.6f, 0.9f), 0.0f);
+  // Both conventions describe the same picture: OBJ (u, v) and glTF (u, 1 - v) agree at texel centres.
+  for (float u : {0.125f, 0.375f, 0.625f, 0.875f})
+    for (float v : {0.25f, 0.75f})
+      EXPECT_EQ(somm::sampleAlpha(*m.alpha, kNearest, u, v), somm::sampleAlpha(ga, kNearest, u, 1.0f - v));
+}
+
+TEST(Obj, GeometryPerShapeAndMaterialInOrderOfFirstAppearance) {
+  TempDir dir;
+  writeFile(dir.file("m.mtl"), "newmtl red\nKd 1 0 0\nnewmtl blue\nKd 0 0 1\n");
+  writeFile(dir.file("m.obj"),
+            "mtllib m.mtl\n"
+            "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 2 0\nv 3 3 0\n"
+            "o A\n"
+            "usemtl red\nf 1 2 3\n"
+            "usemtl blue\nf 1 3 4\n"
+            "usemtl red\nf 2 3 4 5 6\n"
+            "o B\n"
+            "usemtl red\nf 4 5 6\nf 1 2 3 4\n"
+            "usemtl nosuch\nf 1 2 3\n");
+  auto r = somm::loadScene(dir.file("m.obj"));
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  const somm::Scene& s = *r;
+  ASSERT_EQ(s.geometries.size(), 4u);
+  EXPECT_EQ(s.geometries[0].name, "A/red");
+  EXPECT_EQ(s.geometries[1].name, "A/blue");
+  EXPECT_EQ(s.geometries[2].name, "B/red");
+  EXPECT_EQ(s.geometries[3].name, "B/default");
+  // A/red: (1 2 3), then the pentagon fanned (2 3 4) (2 4 5) (2 5 6); local vertices in order of first use.
+  EXPECT_EQ(s.geometries[0].indices, (std::vector<uint32_t>{0, 1, 2, 1, 2, 3, 1, 3, 4, 1, 4, 5}));
+  EXPECT_EQ(s.geometries[0].positions,
+            (std::vector<float>{0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 2, 2, 0, 3, 3, 0}));
+  EXPECT_EQ(s.geometries[1].triangleCount(), 1u);
+  // B/red: (4 5 6), then the quad (1 2 3) (1 3 4).
+  EXPECT_EQ(s.geometries[2].indices, (std::vector<uint32_t>{0, 1, 2, 3, 4, 5, 3, 5, 0}));
+  EXPECT_EQ(s.geometries[2].positions,
+            (std::vector<float>{0, 1, 0, 2, 2, 0, 3, 3, 0, 0, 0, 0, 1, 0, 0, 1, 1, 0}));
+  EXPECT_EQ(s.geometries[2].uvs, std::vector<float>(12, 0.0f));  // no vt: zeros
+  ASSERT_EQ(s.materials.size(), 3u);
+  EXPECT_EQ(s.materials[s.geometries[0].material].name, "red");
+  EXPECT_EQ(s.materials[s.geometries[1].material].name, "blue");
+  EXPECT_EQ(s.geometries[2].material, s.geometries[0].material);
+  EXPECT_EQ(s.materials[s.geometries[3].material].name, "default");
+  ASSERT_EQ(s.instances.size(), 4u);
+  for (uint32_t i = 0; i < 4; ++i) EXPECT_EQ(s.instances[i].geometry, i);
+}
+
+TEST(Obj, MapDChannels) {
+  TempDir dir;
+  // 1×2 images (top row first). RGBA with alpha unlike its luminance; RGB; grey.
+  scenetest::writePng8(dir.file("rgba.png"), 1, 2, 4, {255, 0, 0, 10, 0, 255, 0, 200});
+  scenetest::writePng8(dir.file("rgb.png"), 1, 2, 3, {255, 0, 0, 0, 0, 255});
+  scenetest::writePng8(dir.file("grey.png"), 1, 2, 1, {51, 204});
+  scenetest::writePng8(dir.file("ga.png"), 1, 2, 2, {51, 7, 204, 250});
+  struct Case {
+    std::string mtl;
+    float bottom, top;  // expected alpha of the bottom (texture row 0) and top image rows
+  };
+  const std::vector<Case> cases = {
+      {"map_d rgba.png", 200 / 255.0f, 10 / 255.0f},                   // alpha channel
+      {"map_d -imfchan m rgba.png", 200 / 255.0f, 10 / 255.0f},        // m: the alpha (matte) channel
+      {"map_d -imfchan r rgba.png", 0.0f, 1.0f},                       // red channel
+      {"map_d -imfchan g rgba.png", 1.0f, 0.0f},                       // green channel
+      {"map_d rgb.png", float(0.0722), float(0.2126)},                 // no alpha: Rec. 709 luminance
+      {"map_d grey.png", 204 / 255.0f, 51 / 255.0f},                   // grey: the grey value
+      {"map_d ga.png", 250 / 255.0f, 7 / 255.0f},                      // grey+alpha: alpha
+      {"map_d -imfchan l ga.png", 204 / 255.0f, 51 / 255.0f},          // l: luminance even with alpha
+      {"map_Kd rgba.png\nmap_d grey.png", 204 / 255.0f, 51 / 255.0f},  // map_d wins over map_Kd alpha
+      {"map_Kd ga.png", 250 / 255.0f, 7 / 255.0f},                     // map_Kd alpha when no map_d
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.mtl);
+    auto r = loadQuad(dir, c.mtl + "\n");
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    const somm::Material& m = r->materials[0];
+    EXPECT_EQ(m.alphaMode, somm::AlphaMode::Mask);
+    ASSERT_TRUE(m.alpha);
+    ASSERT_EQ(m.alpha->width, 1u);
+    ASSERT_EQ(m.alpha->height, 2u);
+    EXPECT_NEAR(m.alpha->at(0, 0), c.bottom, 1e-6);
+    EXPECT_NEAR(m.alpha->at(0, 1), c.top, 1e-6);
+  }
+  // map_Kd without an alpha channel and no map_d: opaque.
+  auto r = loadQuad(dir, "map_Kd rgb.png\n");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_EQ(r->materials[0].alphaMode, somm::AlphaMode::Opaque);
+  EXPECT_FALSE(r->materials[0].alpha);
+  EXPECT_TRUE(r->materials[0].baseColor);
+}
+
+TEST(Obj, ClampOption) {
+  TempDir dir;
+  scenetest::writePng8(dir.file("ga.png"), 1, 2, 2, {51, 7, 204, 250});
+  auto r = loadQuad(dir, "map_d -clamp on ga.png\n");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_EQ(r->materials[0].sampler,
+            (somm::Sampler{somm::Wrap::ClampToEdge, somm::Wrap::ClampToEdge, somm::Filter::Linear}));
+  auto r2 = loadQuad(dir, "map_d -clamp off ga.png\n");
+  ASSERT_TRUE(r2.ok()) << r2.error().message;
+  EXPECT_EQ(r2->materials[0].sampler,
+            (somm::Sampler{somm::Wrap::Repeat, somm::Wrap::Repeat, somm::Filter::Linear}));
+  auto r3 = loadQuad(dir, "map_Kd -clamp on ga.png\n");
+  ASSERT_TRUE(r3.ok()) << r3.error().message;
+  EXPECT_EQ(r3->materials[0].sampler.wrapS, somm::Wrap::ClampToEdge);
+}
+
+TEST(Obj, SixteenBitPng) {
+  TempDir dir;
+  scenetest::writeBytes(dir.file("a16.png"),
+                        scenetest::encodePng16(2, 2, 2, {0, 32768, 0, 1, 65535, 65534, 9, 0}));
+  auto r = loadQuad(dir, "map_d a16.png\n");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  const somm::AlphaTexture& a = *r->materials[0].alpha;
+  EXPECT_EQ(a.alpha,
+            (std::vector<float>{float(65534 / 65535.0), 0.0f, float(32768 / 65535.0), float(1 / 65535.0)}));
+}
+
+TEST(Obj, ImageFormats) {
+  TempDir dir;
+  // 8×4 image, alpha = 255 on the left half, 0 on the right; colour luminance the same.
+  std::vector<uint8_t> rgba, grey;
+  for (int y = 0; y < 4; ++y)
+    for (int x = 0; x < 8; ++x) {
+      const uint8_t v = x < 4 ? 255 : 0;
+      rgba.insert(rgba.end(), {v, v, v, v});
+      grey.push_back(v);
+    }
+  ASSERT_TRUE(stbi_write_tga(dir.file("a.tga").c_str(), 8, 4, 4, rgba.data()));
+  ASSERT_TRUE(stbi_write_bmp(dir.file("a.bmp").c_str(), 8, 4, 4, rgba.data()));
+  ASSERT_TRUE(stbi_write_jpg(dir.file("a.jpg").c_str(), 8, 4, 1, grey.data(), 100));
+  for (const char* f : {"a.tga", "a.bmp", "a.jpg"}) {
+    SCOPED_TRACE(f);
+    auto r = loadQuad(dir, std::string("map_d ") + f + "\n");
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    const somm::AlphaTexture& a = *r->materials[0].alpha;
+    ASSERT_EQ(a.width, 8u);
+    ASSERT_EQ(a.height, 4u);
+    for (uint32_t y = 0; y < 4; ++y)
+      for (uint32_t x = 0; x < 8; ++x) EXPECT_NEAR(a.at(x, y), x < 4 ? 1.0 : 0.0, 0.04) << x << "," << y;
+  }
+}
+
+TEST(Obj, MissingTextureNamesMaterialAndPath) {
+  TempDir dir;
+  for (const char* line : {"map_Kd gone.png", "map_d gone.png"}) {
+    auto r = loadQuad(dir, std::string(line) + "\n");
+    ASSERT_FALSE(r.ok());
+    const std::string& m = r.error().message;
+    EXPECT_NE(m.find("q.obj"), std::string::npos) << m;
+    EXPECT_NE(m.find("'leaf'"), std::string::npos) << m;
+    EXPECT_NE(m.find(dir.file("gone.png")), std::string::npos) << m;
+    EXPECT_EQ(r.error().code, somm::ErrorCode::IoError);
+  }
+  writeFile(dir.file("junk.png"), std::string(100, 'x'));
+  auto r = loadQuad(dir, "map_d junk.png\n");
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("junk.png"), std::string::npos);
+  EXPECT_NE(r.error().message.find("decode"), std::string::npos);
+}
+
+TEST(Obj, MalformedFilesGiveErrors) {
+  TempDir dir;
+  const std::vector<std::string> bad = {
+      "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 9\n",                // vertex index past the end
+      "v 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nf 1/1 2/1 3/5\n",  // texcoord index past the end
+      "v 0 0 0\nv 1 0 0\nv 1 1 0\nf -1 -2 -7\n",             // relative index before the start
+  };
+  for (const std::string& text : bad) {
+    SCOPED_TRACE(text);
+    writeFile(dir.file("bad.obj"), text);
+    auto r = somm::loadScene(dir.file("bad.obj"));
+    ASSERT_FALSE(r.ok());
+    EXPECT_EQ(r.error().message.rfind(dir.file("bad.obj") + ": ", 0), 0u) << r.error().message;
+    EXPECT_EQ(r.error().message.find('\n'), std::string::npos) << r.error().message;
+  }
+  // Binary garbage: either an error or an empty scene, never a crash.
+  std::string junk;
+  for (int i = 0; i < 4096; ++i) junk += char((i * 7919) & 0xFF);
+  writeFile(dir.file("junk.obj"), junk);
+  auto r = somm::loadScene(dir.file("junk.obj"));
+  if (r.ok()) {
+    EXPECT_EQ(r->geometries.size(), 0u);
+  }
+  // A missing .mtl is a warning, not an error.
+  writeFile(dir.file("nomtl.obj"), "mtllib none.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nusemtl x\nf 1 2 3\n");
+  auto r2 = somm::loadScene(dir.file("nomtl.obj"));
+  ASSERT_TRUE(r2.ok()) << r2.error().message;
+  EXPECT_EQ(r2->geometries.size(), 1u);
+  EXPECT_FALSE(r2->warnings.empty());
+}
+
+}  // namespace

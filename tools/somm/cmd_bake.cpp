@@ -1,0 +1,344 @@
+// somm bake SCENE -o OUT.somm [...]: conservative OMM baking of every geometry of a glTF / OBJ scene into a
+// .somm file.
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <optional>
+#include <string>
+
+#include "command.h"
+#include "file_summary.h"
+#include "somm/bake.h"
+#include "somm/scene.h"
+#include "somm/somm_file.h"
+
+namespace {
+
+struct Options {
+  std::string scene, output;
+  std::optional<uint32_t> level, maxLevel;
+  std::optional<float> texelsPerMicroTri;
+  uint32_t format = 4;
+  std::string filter = "auto";
+  std::optional<float> cutoff;
+  std::string unknownAs = "majority";
+  uint64_t maxBytes = 0;
+  bool estimate = false;
+  uint32_t threads = 0;
+  bool json = false;
+  bool blendAsMask = false;
+};
+
+std::string floatText(double f) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", f);
+  return buf;
+}
+
+// A progress bar on stderr: only on a terminal, and only once the bake has run for a second.
+class Progress {
+ public:
+  Progress() : tty_(::isatty(STDERR_FILENO) == 1), t0_(std::chrono::steady_clock::now()) {}
+  ~Progress() { finish(); }
+  void update(double fraction) {
+    if (!tty_) return;
+    const auto now = std::chrono::steady_clock::now();
+    if (now - t0_ < std::chrono::seconds(1)) return;
+    if (drawn_ && now - last_ < std::chrono::milliseconds(100)) return;
+    last_ = now;
+    drawn_ = true;
+    fraction = std::clamp(fraction, 0.0, 1.0);
+    const int width = 40, filled = int(fraction * width);
+    std::string bar(size_t(filled), '#');
+    bar.append(size_t(width - filled), '.');
+    std::fprintf(stderr, "\rsomm bake: [%s] %3d%%", bar.c_str(), int(fraction * 100.0));
+    std::fflush(stderr);
+  }
+  void finish() {
+    if (drawn_) std::fprintf(stderr, "\r%60s\r", "");
+    drawn_ = false;
+  }
+
+ private:
+  bool tty_;
+  bool drawn_ = false;
+  std::chrono::steady_clock::time_point t0_, last_;
+};
+
+int run(const Options& o) {
+  using namespace somm::cli;
+  const auto t0 = std::chrono::steady_clock::now();
+  // ---- options ----
+  auto usage = [](const std::string& m) {
+    printError("bake", m);
+    return kExitUsage;
+  };
+  somm::BakeOptions bo;
+  if (o.level && (o.maxLevel || o.texelsPerMicroTri))
+    return usage("--level cannot be combined with --max-level / --texels-per-microtri");
+  if (o.maxLevel.has_value() != o.texelsPerMicroTri.has_value())
+    return usage("--max-level and --texels-per-microtri go together (adaptive levels)");
+  if (o.texelsPerMicroTri && !(*o.texelsPerMicroTri > 0 && std::isfinite(*o.texelsPerMicroTri)))
+    return usage("--texels-per-microtri must be a finite number > 0");
+  if (o.cutoff && !(std::isfinite(*o.cutoff) && *o.cutoff >= 0.0f && *o.cutoff <= 1.0f))
+    return usage("--cutoff must be a number in [0, 1]");
+  if (!o.estimate && o.output.empty()) return usage("-o OUT.somm is required (or --estimate)");
+  bo.level = o.level.value_or(6);
+  if (o.maxLevel) {
+    bo.maxLevel = *o.maxLevel;
+    bo.texelsPerMicroTri = *o.texelsPerMicroTri;
+  }
+  bo.format = o.format == 2 ? somm::Format::TwoState : somm::Format::FourState;
+  if (o.filter == "nearest") bo.filter = somm::Filter::Nearest;
+  if (o.filter == "linear") bo.filter = somm::Filter::Linear;
+  bo.cutoff = o.cutoff;
+  bo.unknownAs = o.unknownAs == "opaque"        ? somm::UnknownAs::Opaque
+                 : o.unknownAs == "transparent" ? somm::UnknownAs::Transparent
+                                                : somm::UnknownAs::Majority;
+  bo.maxBytes = o.maxBytes;
+  bo.threads = o.threads;
+  if (somm::Status s = somm::validateBakeOptions(bo); !s) return usage(s.error().message);
+
+  // ---- scene ----
+  somm::LoadOptions lo;
+  lo.blendAsMask = o.blendAsMask;
+  auto scene = somm::loadScene(o.scene, lo);
+  if (!scene) {
+    printError("bake", scene.error().message);
+    return kExitFailure;
+  }
+  for (const std::string& w : scene->warnings) printError("bake", o.scene + ": note: " + w);
+
+  uint64_t totalTriangles = 0;
+  for (const somm::Geometry& g : scene->geometries) totalTriangles += g.triangleCount();
+
+  Output out;
+  if (o.estimate) {
+    uint64_t data = 0, mapTriangles = 0, micro = 0;
+    std::array<uint64_t, 13> levels{};
+    nlohmann::json geos = nlohmann::json::array();
+    for (size_t gi = 0; gi < scene->geometries.size(); ++gi) {
+      const somm::Geometry& g = scene->geometries[gi];
+      const somm::Material& m = scene->materials[g.material];
+      somm::Result<somm::BakeEstimate> e = somm::BakeEstimate{};
+      if (m.alphaMode == somm::AlphaMode::Blend)
+        e->triangles = g.triangleCount();  // not baked: no micromaps
+      else
+        e = somm::estimateBake(g, m, bo);
+      if (!e) {
+        printError("bake",
+                   o.scene + ": geometry " + std::to_string(gi) + " '" + g.name + "': " + e.error().message);
+        return kExitFailure;
+      }
+      data += e->dataBytes;
+      mapTriangles += e->mapTriangles;
+      micro += e->microTriangles;
+      for (size_t l = 0; l < 13; ++l) levels[l] += e->levelHistogram[l];
+      geos.push_back({{"index", gi},
+                      {"name", g.name},
+                      {"triangles", e->triangles},
+                      {"map_triangles", e->mapTriangles},
+                      {"data_bytes", e->dataBytes},
+                      {"micro_triangles", e->microTriangles}});
+    }
+    if (o.json) {
+      nlohmann::json j = {{"scene", o.scene},
+                          {"estimate", true},
+                          {"geometries", geos},
+                          {"triangles", totalTriangles},
+                          {"map_triangles", mapTriangles},
+                          {"data_bytes", data},
+                          {"micro_triangles", micro}};
+      nlohmann::json lh = nlohmann::json::array();
+      for (uint32_t l = 0; l < 13; ++l)
+        if (levels[l]) lh.push_back({{"level", l}, {"triangles", levels[l]}});
+      j["level_histogram"] = lh;
+      out.put(dumpJson(j) + "\n");
+    } else {
+      out.put(o.scene +
+              ": estimate (every alpha-tested triangle with its own micromap, before special indices and "
+              "deduplication):\n");
+      out.put("  triangles " + std::to_string(totalTriangles) + ", with micromaps " +
+              std::to_string(mapTriangles) + ", micro-triangles " + std::to_string(micro) + "\n");
+      out.put("  level histogram (level:triangles): " + levelList(levels) + "\n");
+      out.put("  data bytes " + std::to_string(data) + " (" + humanBytes(data) + ")\n");
+    }
+    return kExitOk;
+  }
+
+  // ---- bake ----
+  somm::SommFile file;
+  file.sourcePath = o.scene;
+  file.toolVersion = std::string("somm ") + SOMM_VERSION;
+  if (o.maxLevel) {
+    file.bakeOptions.emplace_back("max_level", std::to_string(bo.maxLevel));
+    file.bakeOptions.emplace_back("texels_per_microtri", floatText(bo.texelsPerMicroTri));
+  } else {
+    file.bakeOptions.emplace_back("level", std::to_string(bo.level));
+  }
+  file.bakeOptions.emplace_back("format", std::to_string(o.format));
+  file.bakeOptions.emplace_back("filter", o.filter);
+  file.bakeOptions.emplace_back("cutoff", o.cutoff ? floatText(*o.cutoff) : std::string("material"));
+  if (o.format == 2) file.bakeOptions.emplace_back("unknown_as", o.unknownAs);
+  if (o.maxBytes) file.bakeOptions.emplace_back("max_bytes", std::to_string(o.maxBytes));
+  file.bakeOptions.emplace_back("blend_as_mask", o.blendAsMask ? "true" : "false");
+
+  Progress progress;
+  ArraySummary total;
+  std::vector<ArraySummary> per;
+  // Bakes every geometry with levels capped at `cap`; false (after printing the error) on failure.
+  auto bakeScene = [&](uint32_t cap, double progressFrom, double progressSpan) -> bool {
+    somm::BakeOptions capped = bo;
+    capped.level = std::min(bo.level, cap);
+    capped.maxLevel = std::min(bo.maxLevel, cap);
+    capped.maxBytes = 0;  // the scene-wide limit is applied here, over all geometries
+    file.geometries.clear();
+    per.clear();
+    total = ArraySummary{};
+    uint64_t done = 0;
+    for (size_t gi = 0; gi < scene->geometries.size(); ++gi) {
+      const somm::Geometry& g = scene->geometries[gi];
+      const somm::Material& m = scene->materials[g.material];
+      const uint32_t n = g.triangleCount();
+      somm::SommGeometry sg;
+      sg.info.name = g.name;
+      sg.info.material = m.name;
+      sg.info.triangleCount = n;
+      sg.info.format = bo.format;
+      sg.info.cutoff = bo.cutoff.value_or(m.alphaCutoff);
+      sg.info.sampler = m.sampler;
+      if (bo.filter) sg.info.sampler.filter = *bo.filter;
+      if (m.alphaMode == somm::AlphaMode::Blend) {
+        // BLEND without --blend-as-mask is not alpha-tested: no micromaps, every triangle unknown (the
+        // renderer's any-hit shader decides, as without OMMs).
+        somm::OmmArrayBuilder b;
+        for (uint32_t t = 0; t < n; ++t) b.addSpecial(somm::State::UnknownOpaque);
+        sg.flat = b.finish();
+        sg.info.stats.microTriangles = n;
+        sg.info.stats.unknownMicroTriangles = n;
+      } else {
+        capped.progress = [&](double f) {
+          progress.update(progressFrom + progressSpan * (double(done) + f * n) /
+                                             double(std::max<uint64_t>(1, totalTriangles)));
+        };
+        auto baked = somm::bakeGeometry(g, m, capped);
+        if (!baked) {
+          progress.finish();
+          printError("bake", o.scene + ": geometry " + std::to_string(gi) + " '" + g.name +
+                                 "': " + baked.error().message);
+          return false;
+        }
+        sg.flat = std::move(baked->array);
+        sg.info.stats.microTriangles = baked->stats.microTriangles;
+        sg.info.stats.unknownMicroTriangles = baked->stats.unknownMicroTriangles;
+        sg.info.stats.invalidUvTriangles = baked->stats.nonFiniteUvTriangles;
+        uint32_t lo = somm::kMaxLevel, hi = 0;
+        for (uint8_t l : baked->levels) lo = std::min<uint32_t>(lo, l), hi = std::max<uint32_t>(hi, l);
+        for (const somm::TriangleDescriptor& d : sg.flat.descriptors)
+          lo = std::min<uint32_t>(lo, d.subdivisionLevel), hi = std::max<uint32_t>(hi, d.subdivisionLevel);
+        sg.info.minLevel = lo <= hi ? lo : 0;
+        sg.info.maxLevel = lo <= hi ? hi : 0;
+      }
+      done += n;
+      per.push_back(summarize(sg.flat, sg.info.stats));
+      total.add(per.back());
+      file.geometries.push_back(std::move(sg));
+    }
+    return true;
+  };
+  uint32_t cap = somm::kMaxLevel;
+  if (!bakeScene(cap, 0.0, 1.0)) return kExitFailure;
+  if (o.maxBytes > 0 && total.dataBytes > o.maxBytes) {
+    // --max-bytes: lower a scene-wide level cap one step at a time (the largest maps first) until the data of
+    // all geometries fits. Level 0 always fits (one-state maps are special indices).
+    uint32_t top = 0;
+    for (const somm::SommGeometry& g : file.geometries) top = std::max(top, g.info.maxLevel);
+    for (cap = top; total.dataBytes > o.maxBytes && cap-- > 0;)
+      if (!bakeScene(cap, 0.0, 1.0)) return kExitFailure;
+    file.bakeOptions.emplace_back("level_cap", std::to_string(cap));
+  }
+  progress.finish();
+  if (somm::Status s = somm::writeSommFile(o.output, file); !s) {
+    printError("bake", s.error().message);
+    return kExitFailure;
+  }
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+  if (o.json) {
+    nlohmann::json j;
+    j["scene"] = o.scene;
+    j["output"] = o.output;
+    j["seconds"] = seconds;
+    nlohmann::json geos = nlohmann::json::array();
+    for (size_t i = 0; i < per.size(); ++i) {
+      nlohmann::json x = summaryJson(per[i]);
+      x["index"] = i;
+      x["name"] = file.geometries[i].info.name;
+      x["material"] = file.geometries[i].info.material;
+      geos.push_back(std::move(x));
+    }
+    j["geometries"] = geos;
+    nlohmann::json t = summaryJson(total);
+    t["geometries"] = per.size();
+    j["total"] = t;
+    out.put(dumpJson(j) + "\n");
+    return kExitOk;
+  }
+  const ArraySummary& s = total;
+  char frac[32], secs[32];
+  std::snprintf(frac, sizeof frac, "%.3f%%", 100.0 * s.unknownFraction());
+  std::snprintf(secs, sizeof secs, "%.2f", seconds);
+  out.put(o.output + ": " + std::to_string(per.size()) + " geometries, " + std::to_string(s.triangles) +
+          " triangles baked in " + secs + " s\n");
+  out.put("  special indices: transparent " + std::to_string(s.special[0]) + ", opaque " +
+          std::to_string(s.special[1]) + ", unknown-transparent " + std::to_string(s.special[2]) +
+          ", unknown-opaque " + std::to_string(s.special[3]) + "\n");
+  out.put("  micromaps: " + std::to_string(s.micromapTriangles) + " triangles use " +
+          std::to_string(s.uniqueMicromaps) + " unique micromaps, levels " + levelList(s.levelMicromaps) +
+          "\n");
+  out.put("  data " + std::to_string(s.dataBytes) + " bytes (" + humanBytes(s.dataBytes) + "), descriptors " +
+          std::to_string(s.descriptorBytes) + ", index buffer " + std::to_string(s.indexBytes) + "\n");
+  out.put("  unknown: " + std::to_string(s.unknownMicroTriangles) + " of " +
+          std::to_string(s.microTriangles) + " micro-triangles (" + frac + ")\n");
+  return kExitOk;
+}
+
+void setup(CLI::App& root) {
+  auto o = std::make_shared<Options>();
+  CLI::App* cmd = root.add_subcommand(
+      "bake",
+      "Bake conservative opacity micromaps for every geometry of a glTF (.gltf/.glb) or OBJ scene into a "
+      ".somm file, and print a summary.");
+  cmd->add_option("scene", o->scene, "scene file (.gltf, .glb, .obj)")->required();
+  cmd->add_option("-o,--output", o->output, "output .somm file (written atomically)");
+  cmd->add_option("--level,-l", o->level, "fixed subdivision level 0..12 (default 6)")
+      ->check(CLI::Range(0u, 12u));
+  cmd->add_option("--max-level", o->maxLevel, "adaptive levels: the cap 0..12")->check(CLI::Range(0u, 12u));
+  cmd->add_option(
+      "--texels-per-microtri", o->texelsPerMicroTri,
+      "adaptive levels: per triangle the smallest level whose micro-triangles cover at most S texels");
+  cmd->add_option("--format", o->format, "2 or 4 states (default 4)")->check(CLI::IsMember({2u, 4u}));
+  cmd->add_option("--filter", o->filter, "auto (each material's sampler; OBJ: linear), nearest or linear")
+      ->check(CLI::IsMember({"auto", "nearest", "linear"}));
+  cmd->add_option("--cutoff", o->cutoff,
+                  "alpha cutoff in [0, 1] for every material (default: the material's)");
+  cmd->add_option("--unknown-as", o->unknownAs,
+                  "2-state: what unknown micro-triangles become (default majority)")
+      ->check(CLI::IsMember({"opaque", "transparent", "majority"}));
+  cmd->add_option("--max-bytes", o->maxBytes,
+                  "lower the highest levels until each geometry's data fits in B bytes")
+      ->check(CLI::NonNegativeNumber);  // CLI11 would wrap "-5" into 2^64 - 5
+  cmd->add_flag("--estimate", o->estimate,
+                "print the data size from the levels alone, bake nothing, write nothing");
+  cmd->add_option("--threads,-j", o->threads, "worker threads (default: all)");
+  cmd->add_flag("--json", o->json, "print the summary as JSON (keys in docs/cli.md)");
+  cmd->add_flag("--blend-as-mask", o->blendAsMask, "bake glTF BLEND materials as MASK with their cutoff");
+  cmd->callback([o] { somm::cli::setExitCode(run(*o)); });
+}
+
+const somm::cli::Registration reg("bake", &setup);
+
+}  // namespace

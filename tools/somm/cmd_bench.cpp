@@ -1,0 +1,173 @@
+// somm bench SCENE [--omm FILE.somm] [--methods ...] [--repeat K] [--json]: traces the same rays with every
+// any-hit method, interleaved over K repeats, and compares speed, work and images against `texture`.
+#include <algorithm>
+#include <cstdio>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "command.h"
+#include "file_summary.h"
+#include "trace_cli.h"
+
+namespace {
+
+struct Options {
+  somm::cli::TraceCliOptions trace;
+  std::string methods;  // comma list; empty = all
+  uint32_t repeat = 3;
+};
+
+struct Row {
+  std::string name;
+  somm::MethodSpec spec;
+  std::unique_ptr<somm::Tracer> tracer;
+  std::vector<double> mrays;  // per repeat
+  somm::TraceCounters counters;
+  double diff = 0;
+  bool exact = false;  // must match texture pixel for pixel
+};
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+}
+
+int run(const Options& o) {
+  using namespace somm::cli;
+  std::vector<std::string> names;
+  if (o.methods.empty()) {
+    names = {"texture", "opaque", "bitmask"};
+    for (const std::string& e : somm::traceEncodings()) names.push_back("omm2-" + e);
+    for (const std::string& e : somm::traceEncodings()) names.push_back("omm4-" + e);
+  } else {
+    std::stringstream ss(o.methods);
+    std::string t;
+    while (std::getline(ss, t, ','))
+      if (!t.empty()) names.push_back(t);
+    if (std::find(names.begin(), names.end(), "texture") == names.end())
+      names.insert(names.begin(), "texture");
+  }
+  std::vector<Row> rows;
+  bool needMicromaps = false;
+  for (const std::string& n : names) {
+    auto spec = somm::parseMethod(n);
+    if (!spec) {
+      printError("bench", spec.error().message);
+      return kExitUsage;
+    }
+    if (spec->kind == somm::MethodKind::StateOverlay) {
+      printError("bench", "state-overlay is a picture, not a method to benchmark (use somm render)");
+      return kExitUsage;
+    }
+    needMicromaps |= spec->kind != somm::MethodKind::Opaque && spec->kind != somm::MethodKind::Texture;
+    Row r;
+    r.name = n;
+    r.spec = *spec;
+    r.exact = spec->kind == somm::MethodKind::Texture || spec->kind == somm::MethodKind::Bitmask ||
+              (spec->kind == somm::MethodKind::Omm && spec->format == somm::Format::FourState);
+    rows.push_back(std::move(r));
+  }
+  int code = kExitOk;
+  auto p = prepareTrace("bench", o.trace, needMicromaps, code);
+  if (!p) return code;
+  for (Row& r : rows) {
+    auto t = somm::makeTracer(p->world, r.spec, p->micromaps);
+    if (!t) {
+      printError("bench", t.error().message);
+      return kExitFailure;
+    }
+    r.tracer = std::move(t).value();
+  }
+  somm::Image reference;
+  for (uint32_t k = 0; k < o.repeat; ++k)
+    for (Row& r : rows) {
+      const somm::RenderResult res = r.tracer->render(p->settings);
+      r.mrays.push_back(res.raysPerSecond() / 1e6);
+      if (k == 0) {
+        r.counters = res.counters;
+        if (r.spec.kind == somm::MethodKind::Texture) reference = res.image;
+        r.diff = somm::percentPixelsDiffering(res.image, reference);
+      }
+    }
+  const double textureMrays = median(rows.front().mrays);
+  bool inexact = false;
+  for (const Row& r : rows) inexact |= r.exact && r.diff != 0.0;
+
+  Output out;
+  if (o.trace.json) {
+    nlohmann::json j;
+    j["scene"] = o.trace.scene;
+    j["micromaps"] = needMicromaps ? p->micromapSource : "";
+    j["width"] = p->settings.width;
+    j["height"] = p->settings.height;
+    j["spp"] = p->settings.spp;
+    j["threads"] = p->settings.threads;
+    j["repeat"] = o.repeat;
+    j["bitmask_level"] = p->micromaps.bitmaskLevel;
+    nlohmann::json ms = nlohmann::json::array();
+    for (const Row& r : rows) {
+      const double rays = double(r.counters.rays());
+      ms.push_back({{"method", r.name},
+                    {"mrays_per_s", median(r.mrays)},
+                    {"mrays_per_s_runs", r.mrays},
+                    {"ratio_to_texture", textureMrays > 0 ? median(r.mrays) / textureMrays : 0.0},
+                    {"rays", r.counters.rays()},
+                    {"filter_calls_per_ray", rays ? double(r.counters.filterCalls) / rays : 0.0},
+                    {"texture_tests_per_ray", rays ? double(r.counters.textureTests) / rays : 0.0},
+                    {"micromap_lookups_per_ray", rays ? double(r.counters.micromapLookups) / rays : 0.0},
+                    {"micromap_bytes", r.tracer->micromapBytes()},
+                    {"pct_pixels_differing", r.diff},
+                    {"exact_required", r.exact}});
+    }
+    j["methods"] = ms;
+    out.put(dumpJson(j) + "\n");
+  } else {
+    char buf[512];
+    std::snprintf(buf, sizeof buf, "%s: %ux%u, %u spp, %u repeats (median), micromaps %s\n",
+                  o.trace.scene.c_str(), p->settings.width, p->settings.height, p->settings.spp, o.repeat,
+                  needMicromaps ? p->micromapSource.c_str() : "-");
+    out.put(buf);
+    std::snprintf(buf, sizeof buf, "%-14s %9s %10s %12s %13s %14s %9s\n", "method", "Mrays/s", "vs texture",
+                  "filter/ray", "texture/ray", "micromap bytes", "% pixels");
+    out.put(buf);
+    for (const Row& r : rows) {
+      const double rays = double(r.counters.rays());
+      std::snprintf(buf, sizeof buf, "%-14s %9.2f %9.2fx %12.3f %13.3f %14llu %8.3f%s\n", r.name.c_str(),
+                    median(r.mrays), textureMrays > 0 ? median(r.mrays) / textureMrays : 0.0,
+                    rays ? double(r.counters.filterCalls) / rays : 0.0,
+                    rays ? double(r.counters.textureTests) / rays : 0.0,
+                    (unsigned long long)r.tracer->micromapBytes(), r.diff,
+                    r.exact && r.diff != 0.0 ? "  NOT EXACT" : "");
+      out.put(buf);
+    }
+  }
+  out.flush();
+  if (inexact) {
+    printError("bench", "a method that must be exact rendered pixels different from texture");
+    return kExitFailure;
+  }
+  return kExitOk;
+}
+
+void setup(CLI::App& root) {
+  auto opts = std::make_shared<Options>();
+  CLI::App* cmd = root.add_subcommand(
+      "bench",
+      "Trace the same rays with every any-hit method (interleaved over --repeat runs) and print Mrays/s "
+      "(median), the "
+      "ratio to texture, filter calls and texture tests per ray, micromap bytes and the % of pixels "
+      "differing from "
+      "texture. Exit code 1 if a 4-state method or the bitmask is not pixel-identical to texture.");
+  somm::cli::addTraceOptions(cmd, opts->trace);
+  cmd->add_option("--methods", opts->methods,
+                  "comma-separated methods (default: all; texture is always included)");
+  cmd->add_option("--repeat", opts->repeat, "interleaved repeats")->check(CLI::Range(1u, 1000u));
+  cmd->callback([opts] { somm::cli::setExitCode(run(*opts)); });
+}
+
+const somm::cli::Registration reg("bench", &setup);
+
+}  // namespace

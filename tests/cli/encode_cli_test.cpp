@@ -166,5 +166,30 @@ TEST(CliEncode, CompareTableJsonAndPlot) {
   EXPECT_EQ(r.exitCode, 1);
 }
 
+TEST(CliEncode, BakeStoresEncodings) {
+  TempDir dir;
+  const std::string out = dir / "oak.somm";
+  RunResult r = runSomm(dir, "bake " + shellQuote(std::string(SOMM_DATA_DIR) + "/oak-tree/oaktree.gltf") + " -o " +
+                                 shellQuote(out) + " --level 5 --format 2 --encoding rank,hybrid");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  auto f = readSommFile(out);
+  ASSERT_TRUE(f.ok());
+  for (const SommGeometry& g : f->geometries) {
+    ASSERT_EQ(g.extra.size(), 2u);
+    EXPECT_EQ(g.extra[0].id, sectionId("rank"));
+    EXPECT_EQ(g.extra[1].id, sectionId("hybr"));
+    EXPECT_EQ(g.extra[0].bytes, EncodedArray::build(g.flat, Encoding::Rank).value().serialize());
+  }
+  testing::writeFile(dir / "uv.txt", "0.1 0.2\n0.3 0.3\n0.7 0.1\n0.05 0.9\n");
+  const RunResult flat = runSomm(dir, "query " + shellQuote(out) + " -g 0 -t 1", dir / "uv.txt");
+  const RunResult rank = runSomm(dir, "query " + shellQuote(out) + " -g 0 -t 1 --encoding rank", dir / "uv.txt");
+  ASSERT_EQ(rank.exitCode, 0) << rank.err;
+  EXPECT_EQ(rank.out, flat.out);
+  r = runSomm(dir, "bake " + shellQuote(std::string(SOMM_DATA_DIR) + "/oak-tree/oaktree.gltf") + " -o " +
+                       shellQuote(dir / "x.somm") + " --encoding rank,zip");
+  EXPECT_EQ(r.exitCode, 2);
+  EXPECT_NE(r.err.find("unknown encoding 'zip'"), std::string::npos) << r.err;
+}
+
 }  // namespace
 }  // namespace somm

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "command.h"
+#include "encodings.h"
 #include "file_summary.h"
 #include "somm/bake.h"
 #include "somm/scene.h"
@@ -30,6 +31,7 @@ struct Options {
   uint32_t threads = 0;
   bool json = false;
   bool blendAsMask = false;
+  std::string encodings;  // --encoding: comma list or "all" (flat is always stored)
 };
 
 std::string floatText(double f) {
@@ -70,6 +72,15 @@ class Progress {
 
 int run(const Options& o) {
   using namespace somm::cli;
+  std::vector<somm::Encoding> encodings;
+  if (!o.encodings.empty()) {
+    auto list = somm::parseEncodingList(o.encodings);
+    if (!list) {
+      printError("bake", "--encoding: " + list.error().message);
+      return kExitUsage;
+    }
+    encodings = *list;
+  }
   const auto t0 = std::chrono::steady_clock::now();
   // ---- options ----
   auto usage = [](const std::string& m) {
@@ -261,6 +272,16 @@ int run(const Options& o) {
     file.bakeOptions.emplace_back("level_cap", std::to_string(cap));
   }
   progress.finish();
+  if (!encodings.empty()) {
+    std::string names;
+    for (somm::Encoding e : encodings) names += (names.empty() ? "" : ",") + std::string(somm::encodingName(e));
+    file.bakeOptions.emplace_back("encoding", names);
+    for (somm::SommGeometry& g : file.geometries)
+      if (somm::Status s = addEncodingSections(g, encodings); !s) {
+        printError("bake", o.scene + ": " + s.error().message);
+        return kExitFailure;
+      }
+  }
   if (somm::Status s = somm::writeSommFile(o.output, file); !s) {
     printError("bake", s.error().message);
     return kExitFailure;
@@ -334,6 +355,9 @@ void setup(CLI::App& root) {
   cmd->add_flag("--estimate", o->estimate,
                 "print the data size from the levels alone, bake nothing, write nothing");
   cmd->add_option("--threads,-j", o->threads, "worker threads (default: all)");
+  cmd->add_option("--encoding,-e", o->encodings,
+                  "also store these encodings (docs/encodings.md): comma list of flat, dfs, dfs-fast, rank, "
+                  "hybrid, or all");
   cmd->add_flag("--json", o->json, "print the summary as JSON (keys in docs/cli.md)");
   cmd->add_flag("--blend-as-mask", o->blendAsMask, "bake glTF BLEND materials as MASK with their cutoff");
   cmd->callback([o] { somm::cli::setExitCode(run(*o)); });

@@ -46,6 +46,16 @@ struct OmmArray {
   State stateUV(uint32_t triangle, float u, float v) const noexcept;
 };
 
+// Usage counts per (level, format), sorted by format then level: micromaps among `descriptors`, and triangles whose
+// index refers to one of them.
+struct UsageHistograms {
+  std::vector<UsageCount> micromaps, triangles;
+};
+UsageHistograms countUsage(std::span<const TriangleDescriptor> descriptors, std::span<const int32_t> indices);
+
+// Recomputes a.histogram and a.triangleHistogram from its descriptors and indices.
+void computeUsageHistograms(OmmArray& a);
+
 // Builds an OmmArray one triangle at a time. Uniform micromaps become special indices; identical micromaps are stored
 // once (hash + exact compare), in order of first appearance.
 class OmmArrayBuilder {

@@ -508,23 +508,7 @@ OmmArray EncodedArray::decode() const {
     a.descriptors.push_back(TriangleDescriptor{uint32_t(a.data.size()), d.level, d.format});
     a.data.insert(a.data.end(), m.bytes().begin(), m.bytes().end());
   }
-  auto bump = [](std::vector<UsageCount>& hist, const TriangleDescriptor& d) {
-    auto it = std::find_if(hist.begin(), hist.end(), [&](const UsageCount& c) {
-      return c.subdivisionLevel == d.subdivisionLevel && c.format == d.format;
-    });
-    if (it == hist.end())
-      hist.push_back(UsageCount{1, d.subdivisionLevel, d.format});
-    else
-      ++it->count;
-  };
-  auto order = [](const UsageCount& x, const UsageCount& y) {
-    return x.format != y.format ? x.format < y.format : x.subdivisionLevel < y.subdivisionLevel;
-  };
-  for (const TriangleDescriptor& d : a.descriptors) bump(a.histogram, d);
-  for (int32_t i : a.indices)
-    if (i >= 0) bump(a.triangleHistogram, a.descriptors[size_t(i)]);
-  std::sort(a.histogram.begin(), a.histogram.end(), order);
-  std::sort(a.triangleHistogram.begin(), a.triangleHistogram.end(), order);
+  computeUsageHistograms(a);
   return a;
 }
 

@@ -149,28 +149,6 @@ Status checkGeometry(const SommGeometry& g, const std::string& what) {
   return Ok{};
 }
 
-std::vector<UsageCount> recountHistogram(const OmmArray& a, bool perTriangle) {
-  std::vector<UsageCount> h;
-  auto bump = [&](const TriangleDescriptor& d) {
-    for (UsageCount& c : h)
-      if (c.subdivisionLevel == d.subdivisionLevel && c.format == d.format) {
-        ++c.count;
-        return;
-      }
-    h.push_back(UsageCount{1, d.subdivisionLevel, d.format});
-  };
-  if (perTriangle) {
-    for (int32_t i : a.indices)
-      if (i >= 0) bump(a.descriptors[size_t(i)]);
-  } else {
-    for (const TriangleDescriptor& d : a.descriptors) bump(d);
-  }
-  std::sort(h.begin(), h.end(), [](const UsageCount& x, const UsageCount& y) {
-    return x.format != y.format ? x.format < y.format : x.subdivisionLevel < y.subdivisionLevel;
-  });
-  return h;
-}
-
 // ---- reading ----
 
 class Reader {
@@ -350,9 +328,10 @@ Status validateOmmArray(const OmmArray& a, std::string_view whatView) {
                      " (neither a descriptor index below " + std::to_string(a.descriptors.size()) +
                      " nor a special index -1..-4)");
   }
-  if (a.histogram != recountHistogram(a, false))
+  const UsageHistograms usage = countUsage(a.descriptors, a.indices);
+  if (a.histogram != usage.micromaps)
     return corrupt("micromap usage histogram does not match the descriptors");
-  if (a.triangleHistogram != recountHistogram(a, true))
+  if (a.triangleHistogram != usage.triangles)
     return corrupt("triangle usage histogram does not match the index buffer");
   return Ok{};
 }

@@ -117,9 +117,7 @@ int32_t OmmArrayBuilder::add(const Micromap& map) {
   return id;
 }
 
-OmmArray OmmArrayBuilder::finish() {
-  // Usage histograms per (level, format): micromaps in the array (VkMicromapBuildInfoEXT) and triangles referencing
-  // them (VkAccelerationStructureTrianglesOpacityMicromapEXT).
+UsageHistograms countUsage(std::span<const TriangleDescriptor> descriptors, std::span<const int32_t> indices) {
   auto bump = [](std::vector<UsageCount>& hist, const TriangleDescriptor& d) {
     auto it = std::find_if(hist.begin(), hist.end(), [&](const UsageCount& c) {
       return c.subdivisionLevel == d.subdivisionLevel && c.format == d.format;
@@ -129,16 +127,26 @@ OmmArray OmmArrayBuilder::finish() {
     else
       ++it->count;
   };
-  auto order = [](const UsageCount& a, const UsageCount& b) {
-    return a.format != b.format ? a.format < b.format : a.subdivisionLevel < b.subdivisionLevel;
+  auto order = [](const UsageCount& x, const UsageCount& y) {
+    return x.format != y.format ? x.format < y.format : x.subdivisionLevel < y.subdivisionLevel;
   };
-  array_.histogram.clear();
-  array_.triangleHistogram.clear();
-  for (const TriangleDescriptor& d : array_.descriptors) bump(array_.histogram, d);
-  for (int32_t i : array_.indices)
-    if (i >= 0) bump(array_.triangleHistogram, array_.descriptors[size_t(i)]);
-  std::sort(array_.histogram.begin(), array_.histogram.end(), order);
-  std::sort(array_.triangleHistogram.begin(), array_.triangleHistogram.end(), order);
+  UsageHistograms h;
+  for (const TriangleDescriptor& d : descriptors) bump(h.micromaps, d);
+  for (int32_t i : indices)
+    if (i >= 0 && size_t(i) < descriptors.size()) bump(h.triangles, descriptors[size_t(i)]);
+  std::sort(h.micromaps.begin(), h.micromaps.end(), order);
+  std::sort(h.triangles.begin(), h.triangles.end(), order);
+  return h;
+}
+
+void computeUsageHistograms(OmmArray& a) {
+  UsageHistograms h = countUsage(a.descriptors, a.indices);
+  a.histogram = std::move(h.micromaps);
+  a.triangleHistogram = std::move(h.triangles);
+}
+
+OmmArray OmmArrayBuilder::finish() {
+  computeUsageHistograms(array_);
   OmmArray out = std::move(array_);
   array_ = OmmArray{};
   buckets_.assign(1024, {});

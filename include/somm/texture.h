@@ -27,6 +27,12 @@ struct AlphaTexture {
   float at(uint32_t x, uint32_t y) const noexcept { return alpha[size_t(y) * width + x]; }
 };
 
+// Names used in CLI output and JSON.
+constexpr const char* filterName(Filter f) noexcept { return f == Filter::Nearest ? "nearest" : "linear"; }
+constexpr const char* wrapName(Wrap w) noexcept {
+  return w == Wrap::Repeat ? "repeat" : w == Wrap::ClampToEdge ? "clamp" : "mirror";
+}
+
 // Texel index i (any integer) → [0, size) under a wrap mode (OpenGL / glTF semantics).
 inline uint32_t wrapTexel(int64_t i, uint32_t size, Wrap w) noexcept {
   const int64_t n = int64_t(size);

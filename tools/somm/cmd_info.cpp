@@ -15,20 +15,6 @@ struct Options {
   bool json = false;
 };
 
-const char* filterName(somm::Filter f) {
-  return f == somm::Filter::Nearest ? "nearest" : "linear";
-}
-const char* wrapName(somm::Wrap w) {
-  switch (w) {
-    case somm::Wrap::Repeat:
-      return "repeat";
-    case somm::Wrap::ClampToEdge:
-      return "clamp";
-    case somm::Wrap::MirroredRepeat:
-      return "mirror";
-  }
-  return "?";
-}
 int statesOf(somm::Format f) {
   return f == somm::Format::TwoState ? 2 : 4;
 }

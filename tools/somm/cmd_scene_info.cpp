@@ -26,20 +26,6 @@ const char* modeName(somm::AlphaMode m) {
   }
   return "?";
 }
-const char* wrapName(somm::Wrap w) {
-  switch (w) {
-    case somm::Wrap::Repeat:
-      return "repeat";
-    case somm::Wrap::ClampToEdge:
-      return "clamp";
-    case somm::Wrap::MirroredRepeat:
-      return "mirror";
-  }
-  return "?";
-}
-const char* filterName(somm::Filter f) {
-  return f == somm::Filter::Nearest ? "nearest" : "linear";
-}
 
 std::string fmt(const char* f, double v) {
   char buf[64];

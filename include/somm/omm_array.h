@@ -80,4 +80,56 @@ class OmmArrayBuilder {
   void grow();
 };
 
+// ---- a scene's micromaps: OMM arrays shared by geometries ----
+//
+// Vulkan (VkAccelerationStructureTrianglesOpacityMicromapEXT::micromap) and DXR let many geometries point into one
+// OMM array, each with its own index buffer. The default bake stores ONE scene-wide array: identical maps of all
+// geometries are stored once. Per-geometry arrays (one OmmArray per geometry) remain an option.
+//
+// Representation: the index buffers of the geometries that share an array are concatenated, in geometry order, in
+// that array's `indices` (so an OmmArray/EncodedArray built from it answers for "global" triangle numbers
+// firstTriangle + t); its `histogram` counts the array's micromaps and its `triangleHistogram` all triangles of all
+// its geometries. A geometry's own triangle usage histogram (for its BLAS build) is triangleHistogram(g).
+struct GeometryMicromaps {
+  uint32_t array = 0;          // index into SceneMicromaps::arrays
+  uint32_t firstTriangle = 0;  // offset of this geometry's index buffer in arrays[array].indices
+  uint32_t triangleCount = 0;  // = the geometry's triangle count
+  friend bool operator==(const GeometryMicromaps& a, const GeometryMicromaps& b) noexcept {
+    return a.array == b.array && a.firstTriangle == b.firstTriangle && a.triangleCount == b.triangleCount;
+  }
+};
+
+struct SceneMicromaps {
+  std::vector<OmmArray> arrays;
+  std::vector<GeometryMicromaps> geometries;  // one per scene geometry, in scene order
+
+  // Geometry g's index buffer (triangleCount entries) and its global triangle number in its array.
+  const int32_t* indices(uint32_t g) const noexcept {
+    const GeometryMicromaps& r = geometries[g];
+    return arrays[r.array].indices.data() + r.firstTriangle;
+  }
+  uint32_t globalTriangle(uint32_t g, uint32_t triangle) const noexcept {
+    return geometries[g].firstTriangle + triangle;
+  }
+  const OmmArray& arrayOf(uint32_t g) const noexcept { return arrays[geometries[g].array]; }
+  // State of micro-triangle `index` of triangle `triangle` of geometry g (special indices resolved).
+  State state(uint32_t g, uint32_t triangle, uint32_t index) const noexcept {
+    return arrayOf(g).state(globalTriangle(g, triangle), index);
+  }
+  State stateUV(uint32_t g, uint32_t triangle, float u, float v) const noexcept {
+    return arrayOf(g).stateUV(globalTriangle(g, triangle), u, v);
+  }
+  // Triangle usage counts of geometry g alone (VkAccelerationStructureTrianglesOpacityMicromapEXT::pUsageCounts).
+  std::vector<UsageCount> triangleHistogram(uint32_t g) const;
+  // Geometry g as a stand-alone array holding only the maps it uses (in order of first use), e.g. for a per-geometry
+  // export. States are identical: standalone(g).state(t, i) == state(g, t, i).
+  OmmArray standalone(uint32_t g) const;
+};
+
+// One array per geometry (each `perGeometry[g]` holds geometry g's triangles) → SceneMicromaps with per-geometry arrays.
+SceneMicromaps perGeometryMicromaps(std::vector<OmmArray> perGeometry);
+// Merge into one scene-wide array: identical maps across geometries stored once (order of first appearance over the
+// geometries in order), index buffers concatenated. States unchanged for every (g, triangle, index).
+SceneMicromaps mergeToSceneArray(const SceneMicromaps& in);
+
 }  // namespace somm

@@ -154,4 +154,62 @@ OmmArray OmmArrayBuilder::finish() {
   return out;
 }
 
+// ---- SceneMicromaps ----
+
+namespace {
+Micromap mapOf(const OmmArray& a, int32_t descriptor) {
+  const TriangleDescriptor& d = a.descriptors[size_t(descriptor)];
+  Micromap m(d.subdivisionLevel, Format(d.format));
+  auto bytes = m.bytes();
+  std::memcpy(bytes.data(), a.data.data() + d.dataOffset, bytes.size());
+  return m;
+}
+}  // namespace
+
+std::vector<UsageCount> SceneMicromaps::triangleHistogram(uint32_t g) const {
+  const OmmArray& a = arrayOf(g);
+  return countUsage(a.descriptors, std::span<const int32_t>(indices(g), geometries[g].triangleCount)).triangles;
+}
+
+OmmArray SceneMicromaps::standalone(uint32_t g) const {
+  const OmmArray& a = arrayOf(g);
+  const int32_t* idx = indices(g);
+  OmmArrayBuilder b;
+  for (uint32_t t = 0; t < geometries[g].triangleCount; ++t) {
+    if (idx[t] < 0)
+      b.addSpecial(stateOfSpecialIndex(idx[t]));
+    else
+      b.add(mapOf(a, idx[t]));
+  }
+  return b.finish();
+}
+
+SceneMicromaps perGeometryMicromaps(std::vector<OmmArray> perGeometry) {
+  SceneMicromaps s;
+  s.geometries.resize(perGeometry.size());
+  for (size_t g = 0; g < perGeometry.size(); ++g)
+    s.geometries[g] = GeometryMicromaps{uint32_t(g), 0, uint32_t(perGeometry[g].indices.size())};
+  s.arrays = std::move(perGeometry);
+  return s;
+}
+
+SceneMicromaps mergeToSceneArray(const SceneMicromaps& in) {
+  SceneMicromaps out;
+  OmmArrayBuilder b;
+  out.geometries.resize(in.geometries.size());
+  for (uint32_t g = 0; g < in.geometries.size(); ++g) {
+    const OmmArray& a = in.arrayOf(g);
+    const int32_t* idx = in.indices(g);
+    out.geometries[g] = GeometryMicromaps{0, b.triangleCount(), in.geometries[g].triangleCount};
+    for (uint32_t t = 0; t < in.geometries[g].triangleCount; ++t) {
+      if (idx[t] < 0)
+        b.addSpecial(stateOfSpecialIndex(idx[t]));
+      else
+        b.add(mapOf(a, idx[t]));
+    }
+  }
+  out.arrays.push_back(b.finish());
+  return out;
+}
+
 }  // namespace somm

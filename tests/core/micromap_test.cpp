@@ -136,3 +136,50 @@ TEST(OmmArray, WideIndicesWhenDescriptorsExceed16Bits) {
 
 }  // namespace
 }  // namespace somm
+
+// ---- SceneMicromaps ----
+
+namespace {
+somm::OmmArray arrayOfMaps(const std::vector<somm::Micromap>& maps) {
+  somm::OmmArrayBuilder b;
+  for (const auto& m : maps) b.add(m);
+  return b.finish();
+}
+somm::Micromap checker(uint32_t level, uint32_t phase) {
+  somm::Micromap m(level, somm::Format::FourState);
+  for (uint32_t i = 0; i < m.size(); ++i) m.set(i, somm::State((i + phase) % 4));
+  return m;
+}
+}  // namespace
+
+TEST(SceneMicromaps, MergeSharesIdenticalMapsAcrossGeometriesAndKeepsStates) {
+  using namespace somm;
+  const Micromap a = checker(2, 0), b = checker(2, 1), c = checker(3, 2);
+  const Micromap opaque(1, Format::FourState, State::Opaque);
+  std::vector<OmmArray> per{arrayOfMaps({a, b, opaque}), arrayOfMaps({b, c, a, a})};
+  const SceneMicromaps split = perGeometryMicromaps(per);
+  ASSERT_EQ(split.arrays.size(), 2u);
+  const SceneMicromaps merged = mergeToSceneArray(split);
+  ASSERT_EQ(merged.arrays.size(), 1u);
+  EXPECT_EQ(merged.arrays[0].descriptors.size(), 3u);  // a, b, c once each
+  EXPECT_EQ(merged.arrays[0].indices, (std::vector<int32_t>{0, 1, -2, 1, 2, 0, 0}));
+  EXPECT_EQ(merged.geometries[1].firstTriangle, 3u);
+  EXPECT_EQ(merged.geometries[1].triangleCount, 4u);
+  EXPECT_EQ(merged.indices(1)[1], 2);
+  for (uint32_t g = 0; g < 2; ++g)
+    for (uint32_t t = 0; t < split.geometries[g].triangleCount; ++t)
+      for (uint32_t i = 0; i < 64; ++i) {
+        const uint32_t lv = split.arrayOf(g).indices[t] < 0 ? 0 : split.arrayOf(g).descriptors[size_t(split.arrayOf(g).indices[t])].subdivisionLevel;
+        if (i >= microTriangleCount(lv)) break;
+        EXPECT_EQ(merged.state(g, t, i), split.state(g, t, i));
+      }
+  // Geometry 1's own triangle usage: b, c, a, a → level 2 ×3, level 3 ×1.
+  const auto h = merged.triangleHistogram(1);
+  ASSERT_EQ(h.size(), 2u);
+  EXPECT_EQ(h[0], (UsageCount{3, 2, 2}));
+  EXPECT_EQ(h[1], (UsageCount{1, 3, 2}));
+  // standalone(g) gives back a per-geometry array equal to the original.
+  EXPECT_EQ(merged.standalone(1).descriptors.size(), 3u);
+  EXPECT_EQ(merged.standalone(0).data, per[0].data);
+  EXPECT_EQ(merged.standalone(0).indices, per[0].indices);
+}

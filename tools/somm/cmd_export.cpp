@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm export FILE.somm --dir D: per geometry the raw spec buffers for vkCmdBuildMicromapsEXT / a DXR OMM
 // array build.
 #include <filesystem>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm info FILE.somm [--json]: what a .somm file holds, per geometry and in total.
 #include <algorithm>
 #include <cstdio>

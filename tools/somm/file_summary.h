@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm CLI — per-geometry counters of an OMM array (shared by `somm info` and `somm bake`).
 #pragma once
 

@@ -70,6 +70,16 @@ class Progress {
   std::chrono::steady_clock::time_point t0_, last_;
 };
 
+// A library message names BakeOptions fields ("level 13 is out of range (0..12)"); the CLI names its flags.
+std::string flagNames(const std::string& message) {
+  static const std::pair<const char*, const char*> kFlags[] = {
+      {"level ", "--level "},         {"maxLevel ", "--max-level "}, {"texelsPerMicroTri ", "--texels-per-microtri "},
+      {"format ", "--format "},       {"cutoff ", "--cutoff "},      {"unknownAs ", "--unknown-as "}};
+  for (const auto& [field, flag] : kFlags)
+    if (message.rfind(field, 0) == 0) return flag + message.substr(std::string(field).size());
+  return message;
+}
+
 int run(const Options& o) {
   using namespace somm::cli;
   std::vector<somm::Encoding> encodings;
@@ -111,7 +121,7 @@ int run(const Options& o) {
                                                 : somm::UnknownAs::Majority;
   bo.maxBytes = o.maxBytes;
   bo.threads = o.threads;
-  if (somm::Status s = somm::validateBakeOptions(bo); !s) return usage(s.error().message);
+  if (somm::Status s = somm::validateBakeOptions(bo); !s) return usage(flagNames(s.error().message));
 
   // ---- scene ----
   somm::LoadOptions lo;
@@ -200,77 +210,43 @@ int run(const Options& o) {
   Progress progress;
   ArraySummary total;
   std::vector<ArraySummary> per;
-  // Bakes every geometry with levels capped at `cap`; false (after printing the error) on failure.
-  auto bakeScene = [&](uint32_t cap, double progressFrom, double progressSpan) -> bool {
-    somm::BakeOptions capped = bo;
-    capped.level = std::min(bo.level, cap);
-    capped.maxLevel = std::min(bo.maxLevel, cap);
-    capped.maxBytes = 0;  // the scene-wide limit is applied here, over all geometries
-    file.geometries.clear();
-    per.clear();
-    total = ArraySummary{};
-    uint64_t done = 0;
-    for (size_t gi = 0; gi < scene->geometries.size(); ++gi) {
-      const somm::Geometry& g = scene->geometries[gi];
-      const somm::Material& m = scene->materials[g.material];
-      const uint32_t n = g.triangleCount();
-      somm::SommGeometry sg;
-      sg.info.name = g.name;
-      sg.info.material = m.name;
-      sg.info.triangleCount = n;
-      sg.info.format = bo.format;
-      sg.info.cutoff = bo.cutoff.value_or(m.alphaCutoff);
-      sg.info.sampler = m.sampler;
-      if (bo.filter) sg.info.sampler.filter = *bo.filter;
-      if (m.alphaMode == somm::AlphaMode::Blend) {
-        // BLEND without --blend-as-mask is not alpha-tested: no micromaps, every triangle unknown (the
-        // renderer's any-hit shader decides, as without OMMs).
-        somm::OmmArrayBuilder b;
-        for (uint32_t t = 0; t < n; ++t) b.addSpecial(somm::State::UnknownOpaque);
-        sg.flat = b.finish();
-        sg.info.stats.microTriangles = n;
-        sg.info.stats.unknownMicroTriangles = n;
-      } else {
-        capped.progress = [&](double f) {
-          progress.update(progressFrom + progressSpan * (double(done) + f * n) /
-                                             double(std::max<uint64_t>(1, totalTriangles)));
-        };
-        auto baked = somm::bakeGeometry(g, m, capped);
-        if (!baked) {
-          progress.finish();
-          printError("bake", o.scene + ": geometry " + std::to_string(gi) + " '" + g.name +
-                                 "': " + baked.error().message);
-          return false;
-        }
-        sg.flat = std::move(baked->array);
-        sg.info.stats.microTriangles = baked->stats.microTriangles;
-        sg.info.stats.unknownMicroTriangles = baked->stats.unknownMicroTriangles;
-        sg.info.stats.invalidUvTriangles = baked->stats.nonFiniteUvTriangles;
-        uint32_t lo = somm::kMaxLevel, hi = 0;
-        for (uint8_t l : baked->levels) lo = std::min<uint32_t>(lo, l), hi = std::max<uint32_t>(hi, l);
-        for (const somm::TriangleDescriptor& d : sg.flat.descriptors)
-          lo = std::min<uint32_t>(lo, d.subdivisionLevel), hi = std::max<uint32_t>(hi, d.subdivisionLevel);
-        sg.info.minLevel = lo <= hi ? lo : 0;
-        sg.info.maxLevel = lo <= hi ? hi : 0;
-      }
-      done += n;
-      per.push_back(summarize(sg.flat, sg.info.stats));
-      total.add(per.back());
-      file.geometries.push_back(std::move(sg));
-    }
-    return true;
-  };
-  uint32_t cap = somm::kMaxLevel;
-  if (!bakeScene(cap, 0.0, 1.0)) return kExitFailure;
-  if (o.maxBytes > 0 && total.dataBytes > o.maxBytes) {
-    // --max-bytes: lower a scene-wide level cap one step at a time (the largest maps first) until the data of
-    // all geometries fits. Level 0 always fits (one-state maps are special indices).
-    uint32_t top = 0;
-    for (const somm::SommGeometry& g : file.geometries) top = std::max(top, g.info.maxLevel);
-    for (cap = top; total.dataBytes > o.maxBytes && cap-- > 0;)
-      if (!bakeScene(cap, 0.0, 1.0)) return kExitFailure;
-    file.bakeOptions.emplace_back("level_cap", std::to_string(cap));
+  // One scene-wide bake in the library (masks shared, identical triangles classified once, --max-bytes over all
+  // geometries). BLEND materials (without --blend-as-mask, which the loader applied) are not alpha-tested: no
+  // micromaps, every triangle unknown (the renderer's any-hit shader decides, as without OMMs).
+  somm::BakeOptions sbo = bo;
+  sbo.layout = somm::ArrayLayout::PerGeometry;
+  sbo.blend = somm::BlendAs::Unknown;
+  sbo.progress = [&](double f) { progress.update(f); };
+  auto baked = somm::bakeScene(*scene, sbo);
+  if (!baked) {
+    progress.finish();
+    printError("bake", o.scene + ": " + baked.error().message);
+    return kExitFailure;
   }
+  for (size_t gi = 0; gi < scene->geometries.size(); ++gi) {
+    const somm::Geometry& g = scene->geometries[gi];
+    const somm::Material& m = scene->materials[g.material];
+    const somm::GeometryBake& gb = baked->geometries[gi];
+    somm::SommGeometry sg;
+    sg.info.name = g.name;
+    sg.info.material = m.name;
+    sg.info.triangleCount = g.triangleCount();
+    sg.info.format = bo.format;
+    sg.info.cutoff = bo.cutoff.value_or(m.alphaCutoff);
+    sg.info.sampler = m.sampler;
+    if (bo.filter) sg.info.sampler.filter = *bo.filter;
+    sg.flat = std::move(baked->micromaps.arrays[baked->micromaps.geometries[gi].array]);
+    sg.info.stats.microTriangles = gb.stats.microTriangles;
+    sg.info.stats.unknownMicroTriangles = gb.stats.unknownMicroTriangles;
+    sg.info.stats.invalidUvTriangles = gb.stats.nonFiniteUvTriangles;
+    sg.info.minLevel = gb.stats.minLevel;
+    sg.info.maxLevel = gb.stats.maxLevel;
+    per.push_back(summarize(sg.flat, sg.info.stats));
+    total.add(per.back());
+    file.geometries.push_back(std::move(sg));
+  }
+  if (baked->total.levelCap < somm::kMaxLevel)
+    file.bakeOptions.emplace_back("level_cap", std::to_string(baked->total.levelCap));
   progress.finish();
   if (!encodings.empty()) {
     std::string names;
@@ -350,7 +326,7 @@ void setup(CLI::App& root) {
                   "2-state: what unknown micro-triangles become (default majority)")
       ->check(CLI::IsMember({"opaque", "transparent", "majority"}));
   cmd->add_option("--max-bytes", o->maxBytes,
-                  "lower the highest levels until each geometry's data fits in B bytes")
+                  "lower the highest levels until the data of all geometries fits in B bytes")
       ->check(CLI::NonNegativeNumber);  // CLI11 would wrap "-5" into 2^64 - 5
   cmd->add_flag("--estimate", o->estimate,
                 "print the data size from the levels alone, bake nothing, write nothing");

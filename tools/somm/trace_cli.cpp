@@ -68,9 +68,10 @@ Result<Camera> parseCamera(const std::string& text) {
 
 namespace {
 
-std::shared_ptr<const OmmArrays> demote(const OmmArrays& four) {
-  auto out = std::make_shared<OmmArrays>();
-  for (const OmmArray& a : four) {
+std::shared_ptr<const SceneMicromaps> demote(const SceneMicromaps& four) {
+  auto out = std::make_shared<SceneMicromaps>();
+  out->geometries = four.geometries;
+  for (const OmmArray& a : four.arrays) {
     OmmArray b = a;
     for (TriangleDescriptor& d : b.descriptors) d.format = uint16_t(Format::TwoState);
     // Re-pack each micromap as 2-state bits in place of the 4-state bytes (the spec's force-2-state).
@@ -93,7 +94,7 @@ std::shared_ptr<const OmmArrays> demote(const OmmArrays& four) {
     b.data = std::move(data);
     for (int32_t& idx : b.indices)
       if (isSpecialIndex(idx)) idx = specialIndexFor(toTwoState(stateOfSpecialIndex(idx)));
-    out->push_back(std::move(b));
+    out->arrays.push_back(std::move(b));
   }
   return out;
 }
@@ -135,7 +136,7 @@ std::unique_ptr<PreparedTrace> prepareTrace(const char* command, const TraceCliO
   p->settings.spp = o.spp;
   p->settings.threads = o.threads;
 
-  std::shared_ptr<const OmmArrays> flat4, flat2;
+  std::shared_ptr<const SceneMicromaps> flat4, flat2;
   if (needMicromaps && !o.omm.empty()) {
     auto file = readSommFile(o.omm);
     if (!file) {
@@ -149,7 +150,7 @@ std::unique_ptr<PreparedTrace> prepareTrace(const char* command, const TraceCliO
       exitCode = kExitFailure;
       return nullptr;
     }
-    auto arrays = std::make_shared<OmmArrays>();
+    std::vector<OmmArray> perGeometry;
     bool four = true;
     for (size_t g = 0; g < file->geometries.size(); ++g) {
       const SommGeometry& sg = file->geometries[g];
@@ -167,8 +168,10 @@ std::unique_ptr<PreparedTrace> prepareTrace(const char* command, const TraceCliO
         m.alphaCutoff = sg.info.cutoff;
         m.sampler = sg.info.sampler;
       }
-      arrays->push_back(sg.flat);
+      perGeometry.push_back(sg.flat);
     }
+    // The v1 file stores one array per geometry.
+    auto arrays = std::make_shared<const SceneMicromaps>(perGeometryMicromaps(std::move(perGeometry)));
     if (four) {
       flat4 = arrays;
       flat2 = demote(*arrays);
@@ -200,7 +203,7 @@ std::unique_ptr<PreparedTrace> prepareTrace(const char* command, const TraceCliO
     const auto start = std::chrono::steady_clock::now();
     for (Format f : {Format::FourState, Format::TwoState}) {
       bo.format = f;
-      auto arrays = std::make_shared<OmmArrays>();
+      std::vector<OmmArray> perGeometry;
       for (const Geometry& g : p->scene->geometries) {
         auto baked = bakeGeometry(g, p->scene->materials[g.material], bo);
         if (!baked) {
@@ -208,9 +211,11 @@ std::unique_ptr<PreparedTrace> prepareTrace(const char* command, const TraceCliO
           exitCode = kExitFailure;
           return nullptr;
         }
-        arrays->push_back(std::move(baked->array));
+        perGeometry.push_back(std::move(baked->array));
       }
-      (f == Format::FourState ? flat4 : flat2) = arrays;
+      // One scene-wide array, as `somm bake` stores it: identical maps of all geometries stored once.
+      (f == Format::FourState ? flat4 : flat2) =
+          std::make_shared<const SceneMicromaps>(mergeToSceneArray(perGeometryMicromaps(std::move(perGeometry))));
     }
     p->bakeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     p->micromapSource = o.texelsPerMicroTri > 0
@@ -221,7 +226,7 @@ std::unique_ptr<PreparedTrace> prepareTrace(const char* command, const TraceCliO
   p->micromaps.flat2 = flat2;
   uint32_t maxLevel = 0;
   if (flat4 || flat2)
-    for (const OmmArray& a : flat4 ? *flat4 : *flat2)
+    for (const OmmArray& a : (flat4 ? *flat4 : *flat2).arrays)
       for (const TriangleDescriptor& d : a.descriptors)
         maxLevel = std::max<uint32_t>(maxLevel, d.subdivisionLevel);
   p->micromaps.bitmaskLevel = std::min<uint32_t>(maxLevel, 10);

@@ -33,6 +33,9 @@ void addTraceOptions(CLI::App* cmd, TraceCliOptions& o) {
   cmd->add_option("--cutoff", o.cutoff, "bake and trace: alpha cutoff for every material")
       ->check(CLI::Range(0.0f, 1.0f) & somm::cli::NotNan);
   cmd->add_flag("--blend-as-mask", o.blendAsMask, "treat glTF BLEND materials as MASK");
+  cmd->add_flag("--no-split", o.noSplit,
+                "micromap methods: keep triangles with a special index on the filter path (default: fully "
+                "transparent ones leave the BVH, fully opaque ones lose their filter, as with hardware micromaps)");
   cmd->add_flag("--json", o.json, "print JSON instead of text");
 }
 
@@ -222,6 +225,7 @@ std::unique_ptr<PreparedTrace> prepareTrace(const char* command, const TraceCliO
                             ? "baked in memory (adaptive, max level " + std::to_string(o.maxLevel) + ")"
                             : "baked in memory (level " + std::to_string(o.level) + ")";
   }
+  p->micromaps.splitSpecialIndices = !o.noSplit;
   p->micromaps.flat4 = flat4;
   p->micromaps.flat2 = flat2;
   uint32_t maxLevel = 0;

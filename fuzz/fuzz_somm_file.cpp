@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Fuzz target: the .somm reader (parseSomm). Each input is parsed twice: as is (exercising the magic,
 // version, size and checksum checks) and with every checksum and the declared size recomputed, so that
 // mutations reach the structural validation behind the checksums. A parsed file must be internally valid:

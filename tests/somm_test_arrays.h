@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Test helpers: OmmArrays and SommFiles built from random Micromaps (no baker needed).
 #pragma once
 

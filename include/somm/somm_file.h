@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm — the .somm container: the baked OMM arrays of a scene, their metadata and further encodings, every
 // section checksummed (XXH3-64), written atomically. Byte layout: docs/somm-format.md.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Whole-file reading and atomic writing (temporary file + fsync + rename).
 #include <fcntl.h>
 #include <sys/stat.h>

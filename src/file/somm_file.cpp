@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The .somm container (docs/somm-format.md).
 #include "somm/somm_file.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm bake → .somm → info / query round trips on the bundled scenes, determinism, failures leave nothing
 // behind.
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm query --encoding, somm info --json encoding sizes, somm compare.
 #include <gtest/gtest.h>
 

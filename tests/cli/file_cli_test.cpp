@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm info / query / export on .somm files built from Micromaps in the test.
 #include <gtest/gtest.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm view: PNG output coloured by state, scene lookup, errors.
 #include <gtest/gtest.h>
 #include <stb/stb_image.h>

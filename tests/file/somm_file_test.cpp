@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "somm/somm_file.h"
 
 #include <gtest/gtest.h>

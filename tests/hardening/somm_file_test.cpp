@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Bad-input suite, part 2: corrupt, truncated, foreign and hostile .somm files through `somm info / query /
 // export`. Hostile files are made from a valid one, with the header's declared size and every checksum
 // recomputed after the edit so that the structural validation (not just the checksum) is what rejects them.

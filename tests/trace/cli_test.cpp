@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm render / somm bench end to end on the bundled oak tree.
 #include <gtest/gtest.h>
 #include <stb_image.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm bake SCENE -o OUT.somm [...]: conservative OMM baking of every geometry of a glTF / OBJ scene into a
 // .somm file.
 #include <unistd.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm export FILE.somm --dir D: per OMM array the raw buffers of vkCmdBuildMicromapsEXT / a DXR OMM array
 // build, per geometry its OMM index buffer into its array (docs/cli.md).
 #include <filesystem>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm info FILE.somm [--json] [--reference-compressors]: what a .somm file holds, per array, per geometry and in
 // total.
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm query FILE.somm --geometry G --triangle T: `u v` per line on stdin → the micro-triangle state per
 // line.
 #include <string>

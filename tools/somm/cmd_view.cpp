@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm view FILE.somm --geometry G [--triangles A-B] -o img.png: the alpha texture with the micro-triangles
 // of the selected triangles drawn over it, coloured by the state a ray tracer reads.
 #include <stb/stb_image_write.h>

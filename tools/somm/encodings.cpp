@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "encodings.h"
 
 #include <lzma.h>

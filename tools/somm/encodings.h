@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm CLI — succinct encodings in .somm files: section ids, storing, loading, size reports
 // (docs/encodings.md).
 #pragma once

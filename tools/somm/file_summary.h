@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm CLI — counters of a scene's micromaps per OMM array and per geometry (shared by `somm info` and
 // `somm bake`).
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm CLI — shared setup of `somm render` and `somm bench`.
 #include "trace_cli.h"
 

@@ -188,7 +188,7 @@ TEST(CliInfo, TextNamesArraysAndGeometries) {
       << r.out;
   EXPECT_NE(r.out.find("geometry 2 'empty' (material 'empty-material'): 0 triangles"), std::string::npos)
       << r.out;
-  EXPECT_NE(r.out.find("total: 3 geometries, 1 arrays, 40 triangles"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("total: 3 geometries, 1 array, 40 triangles"), std::string::npos) << r.out;
   // Encodings by name (the sample's sections are opaque test bytes: listed as unreadable, never as ids).
   EXPECT_NE(r.out.find("dfs unreadable"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("hybrid unreadable"), std::string::npos) << r.out;

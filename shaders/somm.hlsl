@@ -1,7 +1,6 @@
 // SPDX-License-Identifier: MIT
 // somm — software opacity micromap lookups for HLSL (DXR, or Vulkan through glslang / DXC), bit-identical to
-// include/somm/bird.h and
-// include/somm/encode.h. Layouts and binding example: docs/shaders.md.
+// include/somm/bird.h and include/somm/encode.h. Layouts and binding example: docs/shaders.md.
 //
 // The same functions, names and results as shaders/somm.glsl. Include this file after defining how to read
 // 32-bit word i (little endian, byte address 4·i) of the buffer that holds the serialized EncodedArray bytes, e.g.
@@ -28,7 +27,7 @@ static const uint SOMM_STATE_TRANSPARENT = 0u;
 static const uint SOMM_STATE_OPAQUE = 1u;
 static const uint SOMM_STATE_UNKNOWN_TRANSPARENT = 2u;
 static const uint SOMM_STATE_UNKNOWN_OPAQUE = 3u;
-static const uint SOMM_ARRAY_MAGIC = 0x434e4553u;  // "SENC"
+static const uint SOMM_ARRAY_MAGIC = 0x434e4553u;  // "SENC", bytes 0..3 of an array
 static const uint SOMM_ARRAY_HEADER_BYTES = 20u;
 static const uint SOMM_DESCRIPTOR_BYTES = 8u;
 static const uint SOMM_TAIL_PADDING = 8u;
@@ -126,7 +125,23 @@ uint sommCountFieldBits(uint level) { return level == 0u ? 0u : 2u * level - 1u;
 
 uint sommFlatState(uint blob, uint level, uint format, uint index) { return sommValue(blob, 0u, format, index); }
 
-// The paper's dfs lookup (Waldemarson & Doggett 2024): skip earlier sibling subtrees bit by bit.
+// The dfs skips. One step consumes bit k of `word` (the bits from `pos` on): a node; a 1 opens four more pending
+// nodes, a 0 is a leaf. A step after the count reached zero does nothing, so a block of steps may overrun.
+// The skips take 48 bits per loop iteration (two 24-bit reads, 48 straight-line steps) because Mesa's
+// llvmpipe / lavapipe ends a shader invocation's loops after 65535 iterations in total: with 48 bits per
+// iteration a skip over up to 3 million tree bits (4·I + 1; ~786 000 internal nodes) stays below that.
+#define SOMM_SKIP_BIT(word, k)                 \
+  if (need != 0u) {                           \
+    uint b_ = ((word) >> (k)) & 1u;           \
+    need = need - 1u + 4u * b_;               \
+    leaf += 1u - b_;                          \
+    ++pos;                                    \
+  }
+#define SOMM_SKIP_4(w, k) SOMM_SKIP_BIT(w, k) SOMM_SKIP_BIT(w, k + 1u) SOMM_SKIP_BIT(w, k + 2u) SOMM_SKIP_BIT(w, k + 3u)
+#define SOMM_SKIP_24(w) \
+  SOMM_SKIP_4(w, 0u) SOMM_SKIP_4(w, 4u) SOMM_SKIP_4(w, 8u) SOMM_SKIP_4(w, 12u) SOMM_SKIP_4(w, 16u) SOMM_SKIP_4(w, 20u)
+
+// The paper's dfs lookup (Waldemarson & Doggett 2024): skip earlier sibling subtrees bit by bit, counting.
 uint sommDfsState(uint blob, uint level, uint format, uint index) {
   uint w = sommCountFieldBits(level);
   uint internal = w != 0u ? sommBits(blob, 0u, w) : 0u;
@@ -137,16 +152,17 @@ uint sommDfsState(uint blob, uint level, uint format, uint index) {
     ++pos;
     uint need = sommDigit(index, level, d);
     while (need != 0u) {
-      uint b = sommBit(t, pos++);
-      need = need - 1u + 4u * b;
-      leaf += 1u - b;
+      uint lo = sommBits(t, pos, 24u);
+      uint hi = sommBits(t, pos + 24u, 24u);
+      SOMM_SKIP_24(lo)
+      SOMM_SKIP_24(hi)
     }
   }
   return sommValue(t, 4u * internal + 1u, format, leaf);
 }
 
-// The same bits, skipped 24 bits at a time while the pending count cannot reach zero inside the chunk
-// (count > zeros of the chunk), then bit by bit within the chunk where it ends.
+// The same bits; 48 bits are consumed at once (popcount) when the pending count exceeds their zeros — it
+// drops by at most one per bit, so it cannot reach zero inside — and stepped through otherwise.
 uint sommDfsFastState(uint blob, uint level, uint format, uint index) {
   uint w = sommCountFieldBits(level);
   uint internal = w != 0u ? sommBits(blob, 0u, w) : 0u;
@@ -157,19 +173,16 @@ uint sommDfsFastState(uint blob, uint level, uint format, uint index) {
     ++pos;
     uint need = sommDigit(index, level, d);
     while (need != 0u) {
-      uint chunk = sommBits(t, pos, 24u);
-      uint ones = uint(countbits(chunk));
-      if (need > 24u - ones) {
-        need = need + 4u * ones - 24u;
-        leaf += 24u - ones;
-        pos += 24u;
-        continue;
-      }
-      for (uint k = 0u; k < 24u && need != 0u; ++k) {
-        uint b = (chunk >> k) & 1u;
-        need = need - 1u + 4u * b;
-        leaf += 1u - b;
-        ++pos;
+      uint lo = sommBits(t, pos, 24u);
+      uint hi = sommBits(t, pos + 24u, 24u);
+      uint ones = uint(countbits(lo)) + uint(countbits(hi));
+      if (need > 48u - ones) {
+        need = need + 4u * ones - 48u;
+        leaf += 48u - ones;
+        pos += 48u;
+      } else {
+        SOMM_SKIP_24(lo)
+        SOMM_SKIP_24(hi)
       }
     }
   }

@@ -195,8 +195,15 @@ void reportMismatch(const char* what, const char* lang, const Query& q, uint32_t
                what, lang, q.triangle, double(q.u), floatToBits(q.u), double(q.v), floatToBits(q.v), q.w, cpu, gpu);
 }
 
+bool validEncodingOption(const char* command, const std::string& e) {
+  if (e == "all" || somm::parseEncodingName(e)) return true;
+  somm::cli::printError(command, "--encoding '" + e + "' is not one of flat, dfs, dfs-fast, rank, hybrid, all");
+  return false;
+}
+
 int runCheck(const CheckOptions& o) {
   using namespace somm::cli;
+  if (!validEncodingOption("gpu-check", o.encoding)) return kExitUsage;
   auto file = somm::readSommFile(o.path);
   if (!file) {
     printError("gpu-check", file.error().message);
@@ -205,7 +212,7 @@ int runCheck(const CheckOptions& o) {
   auto encodings = loadGpuEncodings(*file, o.path, o.encoding);
   if (!encodings) {
     printError("gpu-check", encodings.error().message);
-    return encodings.error().code == somm::ErrorCode::InvalidArgument ? kExitUsage : kExitFailure;
+    return kExitFailure;
   }
   auto device = somm::gpu::Device::open();
   if (!device) {
@@ -284,6 +291,7 @@ struct BenchOptions {
 
 int runBench(const BenchOptions& o) {
   using namespace somm::cli;
+  if (!validEncodingOption("gpu-bench", o.encoding)) return kExitUsage;
   auto file = somm::readSommFile(o.path);
   if (!file) {
     printError("gpu-bench", file.error().message);
@@ -292,7 +300,7 @@ int runBench(const BenchOptions& o) {
   auto encodings = loadGpuEncodings(*file, o.path, o.encoding);
   if (!encodings) {
     printError("gpu-bench", encodings.error().message);
-    return encodings.error().code == somm::ErrorCode::InvalidArgument ? kExitUsage : kExitFailure;
+    return kExitFailure;
   }
   if (encodings->empty() || encodings->front().encoding != somm::Encoding::Flat) {
     // the baseline: flat first

@@ -7,9 +7,17 @@ JOBS       ?= $(shell nproc)
 SECONDS    ?= 30
 CMAKE_GEN  := -G Ninja
 
+# The Vulkan shader harness (src/gpu, somm gpu-check / gpu-bench, docs/shaders.md): headers and glslangValidator to
+# build, lavapipe (Mesa's CPU Vulkan device) and the loader to run the tests. SOMM_GPU=OFF leaves all of it out.
+SOMM_GPU ?= ON
+ifeq ($(SOMM_GPU),ON)
+GPU_PKGS := libvulkan-dev libvulkan1 glslang-tools mesa-vulkan-drivers
+endif
+
 DEB_PKGS := cmake ninja-build g++ pkg-config libgtest-dev libgmock-dev libbenchmark-dev \
             libtinygltf-dev libtinyobjloader-dev libstb-dev libembree-dev libtbb-dev libcli11-dev \
-            nlohmann-json3-dev libxxhash-dev libzstd-dev liblzma-dev clang libclang-rt-14-dev
+            nlohmann-json3-dev libxxhash-dev libzstd-dev liblzma-dev clang libclang-rt-14-dev \
+            $(GPU_PKGS)
 
 .PHONY: all deps configure build test sanitize fuzz fuzz-build bench demo format clean
 
@@ -26,7 +34,7 @@ deps:
 	fi
 
 $(BUILD)/build.ninja: | deps
-	cmake -S . -B $(BUILD) $(CMAKE_GEN) -DCMAKE_BUILD_TYPE=Release
+	cmake -S . -B $(BUILD) $(CMAKE_GEN) -DCMAKE_BUILD_TYPE=Release -DSOMM_BUILD_GPU=$(SOMM_GPU)
 
 configure: deps $(BUILD)/build.ninja
 
@@ -37,7 +45,8 @@ test: build
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
 sanitize: deps
-	cmake -S . -B $(ASAN_BUILD) $(CMAKE_GEN) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSOMM_SANITIZE=ON -DSOMM_BUILD_BENCH=OFF
+	cmake -S . -B $(ASAN_BUILD) $(CMAKE_GEN) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSOMM_SANITIZE=ON -DSOMM_BUILD_BENCH=OFF \
+	  -DSOMM_BUILD_GPU=$(SOMM_GPU)
 	cmake --build $(ASAN_BUILD) -j $(JOBS)
 	cd $(ASAN_BUILD) && ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
 	  ctest --output-on-failure -j $(JOBS)
@@ -45,7 +54,7 @@ sanitize: deps
 # libFuzzer targets (clang, ASan+UBSan, separate build dir): each runs SECONDS seconds (docs/hardening.md).
 fuzz-build: deps
 	cmake -S . -B $(FUZZ_BUILD) $(CMAKE_GEN) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
-	  -DSOMM_FUZZ=ON -DSOMM_BUILD_TESTS=OFF -DSOMM_BUILD_BENCH=OFF -DSOMM_BUILD_TRACE=OFF
+	  -DSOMM_FUZZ=ON -DSOMM_BUILD_TESTS=OFF -DSOMM_BUILD_BENCH=OFF -DSOMM_BUILD_TRACE=OFF -DSOMM_BUILD_GPU=OFF
 	cmake --build $(FUZZ_BUILD) -j $(JOBS) --target somm_fuzzers
 
 fuzz: fuzz-build

@@ -37,9 +37,14 @@ static const uint SOMM_ENCODING_DFS = 1u;
 static const uint SOMM_ENCODING_DFS_FAST = 2u;
 static const uint SOMM_ENCODING_RANK = 3u;
 static const uint SOMM_ENCODING_HYBRID = 4u;
+static const uint SOMM_ENCODING_CSM = 5u;
+static const uint SOMM_ENCODING_SDAG = 6u;
 static const uint SOMM_KIND_FLAT = 0u;
 static const uint SOMM_KIND_DFS = 1u;
 static const uint SOMM_KIND_RANK = 2u;
+static const uint SOMM_KIND_CSM = 3u;
+static const uint SOMM_KIND_SDAG = 4u;
+static const uint SOMM_SDAG_DIRECTORY_BYTES = 64u;
 static const uint SOMM_FORMAT_2_STATE = 1u;
 static const uint SOMM_FORMAT_4_STATE = 2u;
 
@@ -57,6 +62,13 @@ uint sommRead16(uint addr) { return sommRead32(addr) & 0xffffu; }
 // n ≤ 25 bits at bit `bit` of the region starting at byte `addr` (bits LSB-first within bytes).
 uint sommBits(uint addr, uint bit, uint n) {
   return (sommRead32(addr + (bit >> 3u)) >> (bit & 7u)) & ((1u << n) - 1u);
+}
+// n ≤ 32 bits at bit `bit` (reads 8 bytes).
+uint sommBits32(uint addr, uint bit, uint n) {
+  uint a = addr + (bit >> 3u);
+  uint sh = bit & 7u;
+  uint v = (sommRead32(a) >> sh) | ((sommRead32(a + 4u) << 1u) << (31u - sh));
+  return n >= 32u ? v : v & ((1u << n) - 1u);
 }
 uint sommBit(uint addr, uint bit) { return (sommByte(addr + (bit >> 3u)) >> (bit & 7u)) & 1u; }
 
@@ -240,6 +252,67 @@ uint sommRankState(uint blob, uint level, uint format, uint index) {
   return sommValue(fl, valueBase, format, x - internal);
 }
 
+// ---- the array-wide DAGs (docs/encodings.md, "csm" and "sdag"); `data` = byte address of the array's data ----
+// csm (Chernaik, Modisett & Billeter, HPG 2026): 16-way nodes = u16 child mask (absent child = transparent) + one
+// u32 data offset per present child; leaves of 16 states; odd levels ≥ 3 start with a 4-way root.
+uint sommCsmState(uint data, uint offset, uint level, uint format, uint index) {
+  uint p = data + offset;
+  if (level <= 1u) return sommValue(p, 0u, format, index);
+  uint shift = 2u * level;
+  if ((level & 1u) != 0u) {
+    shift -= 2u;
+    uint slot = index >> shift;
+    uint m = sommRead16(p);
+    if (((m >> slot) & 1u) == 0u) return SOMM_STATE_TRANSPARENT;
+    p = data + sommRead32(p + 2u + 4u * uint(countbits(m & ((1u << slot) - 1u))));
+  }
+  while (shift > 4u) {
+    shift -= 4u;
+    uint slot = (index >> shift) & 15u;
+    uint m = sommRead16(p);
+    if (((m >> slot) & 1u) == 0u) return SOMM_STATE_TRANSPARENT;
+    p = data + sommRead32(p + 2u + 4u * uint(countbits(m & ((1u << slot) - 1u))));
+  }
+  return sommValue(p, 0u, format, index & 15u);
+}
+
+// sdag: the data starts with a 64-byte directory (u32 base[13], u8 width[12]); node records hold a u16 mask
+// (1 = child is a node), the uniform children's states, then width-bit references to the node children.
+uint sommSdagRegion(uint format, uint height) { return (format - 1u) * 6u + height - 1u; }
+uint sommSdagChild(uint data, uint format, uint height, uint ref) {
+  uint base = sommRead32(data + 4u * sommSdagRegion(format, height));
+  return data + base + (height == 1u ? ref * 2u * format : ref);  // leaves: 2b bytes (b = format)
+}
+uint sommSdagWidth(uint data, uint format, uint height) { return sommByte(data + 52u + sommSdagRegion(format, height)); }
+
+uint sommSdagState(uint data, uint offset, uint level, uint format, uint index) {
+  uint p = data + offset;
+  if (level <= 1u) return sommValue(p, 0u, format, index);
+  uint b = format;  // bits per state
+  uint shift = 2u * level;
+  uint h = level >> 1u;
+  if ((level & 1u) != 0u) {  // 4-way root: M in bits 0..3, states from bit 4
+    shift -= 2u;
+    uint slot = index >> shift;
+    uint m = sommByte(p) & 15u;
+    uint below = uint(countbits(m & ((1u << slot) - 1u)));
+    if (((m >> slot) & 1u) == 0u) return sommValue(p, 4u, format, slot - below);
+    uint w = sommSdagWidth(data, format, h);
+    p = sommSdagChild(data, format, h, sommBits32(p, 4u + b * (4u - uint(countbits(m))) + w * below, w));
+  }
+  while (h >= 2u) {
+    shift -= 4u;
+    uint slot = (index >> shift) & 15u;
+    uint m = sommRead16(p);
+    uint below = uint(countbits(m & ((1u << slot) - 1u)));
+    if (((m >> slot) & 1u) == 0u) return sommValue(p, 16u, format, slot - below);
+    --h;
+    uint w = sommSdagWidth(data, format, h);
+    p = sommSdagChild(data, format, h, sommBits32(p, 16u + b * (16u - uint(countbits(m))) + w * below, w));
+  }
+  return sommValue(p, 0u, format, index & 15u);
+}
+
 // ---- a serialized EncodedArray at byte address `base` (docs/encodings.md, "Encoded array") ----
 struct SommArray {
   uint encoding;   // SOMM_ENCODING_*
@@ -285,6 +358,8 @@ uint sommMapState(SommArray a, uint map, uint index) {
   uint format = (meta >> 8u) & 0xffu;
   uint kind = (meta >> 16u) & 0xffu;
   if (kind == SOMM_KIND_RANK) return sommRankState(blob, level, format, index);
+  if (kind == SOMM_KIND_CSM) return sommCsmState(a.data, sommRead32(d), level, format, index);
+  if (kind == SOMM_KIND_SDAG) return sommSdagState(a.data, sommRead32(d), level, format, index);
   if (kind == SOMM_KIND_DFS)
     return a.encoding == SOMM_ENCODING_DFS ? sommDfsState(blob, level, format, index)
                                            : sommDfsFastState(blob, level, format, index);

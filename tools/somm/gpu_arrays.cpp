@@ -11,11 +11,12 @@ Result<std::vector<GpuEncoding>> loadGpuEncodings(const SommFile& file, const st
   if (encoding == "all") {
     // flat, then every encoding that each geometry stores
     for (Encoding e : kAllEncodings) {
-      bool everywhere = !file.geometries.empty();
+      bool everywhere = !file.micromaps.arrays.empty();
       if (e != Encoding::Flat)
-        for (const SommGeometry& g : file.geometries) {
+        for (size_t a = 0; a < file.micromaps.arrays.size(); ++a) {
           bool has = false;
-          for (const EncodedSection& s : g.extra) has = has || s.id == encodingSectionId(e);
+          if (a < file.encodings.size())
+            for (const EncodedSection& s : file.encodings[a]) has = has || s.id == encodingSectionId(e);
           everywhere = everywhere && has;
         }
       if (everywhere || e == Encoding::Flat) wanted.push_back(e);
@@ -31,8 +32,8 @@ Result<std::vector<GpuEncoding>> loadGpuEncodings(const SommFile& file, const st
   for (Encoding e : wanted) {
     GpuEncoding ge;
     ge.encoding = e;
-    for (uint32_t g = 0; g < file.geometries.size(); ++g) {
-      auto a = loadEncoding(file.geometries[g], g, e, path);
+    for (uint32_t k = 0; k < file.micromaps.arrays.size(); ++k) {
+      auto a = loadEncoding(file, k, e, path);
       if (!a) return a.error();
       std::vector<uint8_t> bytes = a->serialize();
       if (ge.buffer.size() + bytes.size() + 16 > 0xfffffff0u)

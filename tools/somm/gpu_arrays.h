@@ -12,7 +12,8 @@
 
 namespace somm::cli {
 
-// One encoding of all arrays of the file, packed into one GPU buffer.
+// One encoding of all OMM arrays of the file (SommFile::micromaps.arrays; the default bake stores one
+// scene-wide array), packed into one GPU buffer.
 struct GpuEncoding {
   Encoding encoding = Encoding::Flat;
   std::vector<EncodedArray> arrays;  // the CPU reference, one per stored array

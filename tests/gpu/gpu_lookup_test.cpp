@@ -83,7 +83,7 @@ TEST(GpuLookup, ThirtyTwoBitIndexBuffer) {
   SOMM_OPEN_DEVICE_OR_SKIP(device);
   // More than 0xfffb distinct maps force 32-bit indices.
   somm::OmmArrayBuilder b;
-  for (uint32_t t = 0; t < 70000; ++t) {
+  for (uint32_t t = 0; t < 90000; ++t) {
     somm::Micromap m(3, somm::Format::FourState, somm::State::Opaque);
     for (uint32_t k = 0; k < 64; ++k)
       m.set(k, somm::State(k < 17 ? ((t >> k) & 1u) * 2 + (k & 1u) : (k * 7) & 3u));

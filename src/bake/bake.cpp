@@ -106,6 +106,11 @@ constexpr int64_t kLeafCells = 1024, kNodeCells = 4;
 // Texel coordinates at or beyond this magnitude make a triangle unknown (texelFloor clamps at 1e15).
 constexpr double kMaxTexelCoord = 1e14;
 
+// Safety margin (docs/baking.md): float UV interpolation error in units of 2^-24 · P, and how far (in barycentric
+// units) a hit point may lie outside the micro-triangle it is looked up in.
+constexpr double kInterpolationUlps = 6.0;
+constexpr double kBarycentricSlack = 0x1p-20;
+
 // Rows of cells beyond which a region is declared mixed without enumerating (still conservative).
 constexpr int64_t kMaxRows = int64_t(1) << 22;
 
@@ -1035,9 +1040,17 @@ AlphaMask::Count AlphaMask::count(int64_t x0, int64_t x1, int64_t y0, int64_t y1
 }
 
 double bakeMarginTexels(const double x[3], const double y[3]) noexcept {
+  // docs/baking.md "Safety margin": 6·2^-24·P (float UV interpolation, P = the power of two above the largest
+  // coordinate magnitude) + 2·2^-20·E (barycentrics up to 2^-20 outside the micro-triangle, E = the larger extent)
+  // + 1e-9 (the baker's own double arithmetic).
   double mag = 0;
   for (int k = 0; k < 3; ++k) mag = std::max(mag, std::max(std::fabs(x[k]), std::fabs(y[k])));
-  return 1e-3 + 1e-5 * mag;
+  const double ex = std::max(x[0], std::max(x[1], x[2])) - std::min(x[0], std::min(x[1], x[2]));
+  const double ey = std::max(y[0], std::max(y[1], y[2])) - std::min(y[0], std::min(y[1], y[2]));
+  int e = 0;
+  std::frexp(mag, &e);  // mag = f · 2^e, f in [0.5, 1): 2^e > mag (mag = 0: e = 0, P = 1)
+  const double P = std::ldexp(1.0, e);
+  return kInterpolationUlps * 0x1p-24 * P + 2 * kBarycentricSlack * std::max(ex, ey) + 1e-9;
 }
 
 uint32_t adaptiveLevel(std::array<float, 2> uv0, std::array<float, 2> uv1, std::array<float, 2> uv2,

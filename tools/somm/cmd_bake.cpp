@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm bake SCENE -o OUT.somm [...]: conservative OMM baking of every geometry of a glTF / OBJ scene into a
 // .somm file.
 #include <unistd.h>
@@ -32,6 +33,7 @@ struct Options {
   bool json = false;
   bool blendAsMask = false;
   std::string encodings;  // --encoding: comma list or "all" (flat is always stored)
+  std::string arrays = "scene";  // --arrays: one scene-wide OMM array, or one per geometry
 };
 
 std::string floatText(double f) {
@@ -207,14 +209,15 @@ int run(const Options& o) {
   if (o.maxBytes) file.bakeOptions.emplace_back("max_bytes", std::to_string(o.maxBytes));
   file.bakeOptions.emplace_back("blend_as_mask", o.blendAsMask ? "true" : "false");
 
+  file.bakeOptions.emplace_back("arrays", o.arrays);
+  const bool sceneArray = o.arrays == "scene";
+
   Progress progress;
-  ArraySummary total;
-  std::vector<ArraySummary> per;
-  // One scene-wide bake in the library (masks shared, identical triangles classified once, --max-bytes over all
-  // geometries). BLEND materials (without --blend-as-mask, which the loader applied) are not alpha-tested: no
+  // One bake of the whole scene in the library (masks shared, identical triangles classified once, --max-bytes over
+  // all arrays). BLEND materials (without --blend-as-mask, which the loader applied) are not alpha-tested: no
   // micromaps, every triangle unknown (the renderer's any-hit shader decides, as without OMMs).
   somm::BakeOptions sbo = bo;
-  sbo.layout = somm::ArrayLayout::PerGeometry;
+  sbo.layout = sceneArray ? somm::ArrayLayout::SceneWide : somm::ArrayLayout::PerGeometry;
   sbo.blend = somm::BlendAs::Unknown;
   sbo.progress = [&](double f) { progress.update(f); };
   auto baked = somm::bakeScene(*scene, sbo);
@@ -227,24 +230,23 @@ int run(const Options& o) {
     const somm::Geometry& g = scene->geometries[gi];
     const somm::Material& m = scene->materials[g.material];
     const somm::GeometryBake& gb = baked->geometries[gi];
-    somm::SommGeometry sg;
-    sg.info.name = g.name;
-    sg.info.material = m.name;
-    sg.info.triangleCount = g.triangleCount();
-    sg.info.format = bo.format;
-    sg.info.cutoff = bo.cutoff.value_or(m.alphaCutoff);
-    sg.info.sampler = m.sampler;
-    if (bo.filter) sg.info.sampler.filter = *bo.filter;
-    sg.flat = std::move(baked->micromaps.arrays[baked->micromaps.geometries[gi].array]);
-    sg.info.stats.microTriangles = gb.stats.microTriangles;
-    sg.info.stats.unknownMicroTriangles = gb.stats.unknownMicroTriangles;
-    sg.info.stats.invalidUvTriangles = gb.stats.nonFiniteUvTriangles;
-    sg.info.minLevel = gb.stats.minLevel;
-    sg.info.maxLevel = gb.stats.maxLevel;
-    per.push_back(summarize(sg.flat, sg.info.stats));
-    total.add(per.back());
-    file.geometries.push_back(std::move(sg));
+    somm::GeometryInfo info;
+    info.name = g.name;
+    info.material = m.name;
+    info.triangleCount = g.triangleCount();
+    info.format = bo.format;
+    info.cutoff = bo.cutoff.value_or(m.alphaCutoff);
+    info.sampler = m.sampler;
+    if (bo.filter) info.sampler.filter = *bo.filter;
+    info.stats.microTriangles = gb.stats.microTriangles;
+    info.stats.unknownMicroTriangles = gb.stats.unknownMicroTriangles;
+    info.stats.invalidUvTriangles = gb.stats.nonFiniteUvTriangles;
+    info.minLevel = gb.stats.minLevel;
+    info.maxLevel = gb.stats.maxLevel;
+    file.geometries.push_back(std::move(info));
   }
+  file.micromaps = std::move(baked->micromaps);
+  file.encodings.assign(file.micromaps.arrays.size(), {});
   if (baked->total.levelCap < somm::kMaxLevel)
     file.bakeOptions.emplace_back("level_cap", std::to_string(baked->total.levelCap));
   progress.finish();
@@ -252,54 +254,73 @@ int run(const Options& o) {
     std::string names;
     for (somm::Encoding e : encodings) names += (names.empty() ? "" : ",") + std::string(somm::encodingName(e));
     file.bakeOptions.emplace_back("encoding", names);
-    for (somm::SommGeometry& g : file.geometries)
-      if (somm::Status s = addEncodingSections(g, encodings); !s) {
-        printError("bake", o.scene + ": " + s.error().message);
-        return kExitFailure;
-      }
+    if (somm::Status s = addEncodingSections(file, encodings); !s) {
+      printError("bake", o.scene + ": " + s.error().message);
+      return kExitFailure;
+    }
   }
   if (somm::Status s = somm::writeSommFile(o.output, file); !s) {
     printError("bake", s.error().message);
     return kExitFailure;
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const FileSummary sum = summarizeFile(file);
+  const GeometrySummary& s = sum.geometryTotal;
 
   if (o.json) {
     nlohmann::json j;
     j["scene"] = o.scene;
     j["output"] = o.output;
     j["seconds"] = seconds;
+    nlohmann::json arrays = nlohmann::json::array();
+    for (size_t a = 0; a < sum.arrays.size(); ++a) {
+      nlohmann::json x = arraySummaryJson(sum.arrays[a]);
+      x["index"] = a;
+      arrays.push_back(std::move(x));
+    }
+    j["arrays"] = arrays;
     nlohmann::json geos = nlohmann::json::array();
-    for (size_t i = 0; i < per.size(); ++i) {
-      nlohmann::json x = summaryJson(per[i]);
+    for (size_t i = 0; i < sum.geometries.size(); ++i) {
+      nlohmann::json x = geometrySummaryJson(sum.geometries[i]);
       x["index"] = i;
-      x["name"] = file.geometries[i].info.name;
-      x["material"] = file.geometries[i].info.material;
+      x["name"] = file.geometries[i].name;
+      x["material"] = file.geometries[i].material;
+      x["array"] = file.micromaps.geometries[i].array;
+      x["first_triangle"] = file.micromaps.geometries[i].firstTriangle;
+      x["distinct_micromaps"] = sum.geometries[i].distinctMicromaps;
       geos.push_back(std::move(x));
     }
     j["geometries"] = geos;
-    nlohmann::json t = summaryJson(total);
-    t["geometries"] = per.size();
+    nlohmann::json t = geometrySummaryJson(s);
+    t["geometries"] = sum.geometries.size();
+    t["arrays"] = sum.arrays.size();
+    t["unique_micromaps"] = sum.arrayTotal.uniqueMicromaps;
+    t["bytes"] = {{"data", sum.arrayTotal.dataBytes},
+                  {"descriptors", sum.arrayTotal.descriptorBytes},
+                  {"index_buffers", s.indexBytes},
+                  {"total", sum.arrayTotal.dataBytes + sum.arrayTotal.descriptorBytes + s.indexBytes}};
     j["total"] = t;
     out.put(dumpJson(j) + "\n");
     return kExitOk;
   }
-  const ArraySummary& s = total;
   char frac[32], secs[32];
   std::snprintf(frac, sizeof frac, "%.3f%%", 100.0 * s.unknownFraction());
   std::snprintf(secs, sizeof secs, "%.2f", seconds);
-  out.put(o.output + ": " + std::to_string(per.size()) + " geometries, " + std::to_string(s.triangles) +
-          " triangles baked in " + secs + " s\n");
-  out.put("  special indices: transparent " + std::to_string(s.special[0]) + ", opaque " +
+  out.put(o.output + ": " + std::to_string(sum.geometries.size()) + " geometries, " + std::to_string(s.triangles) +
+          " triangles baked in " + secs + " s into " +
+          (sceneArray ? std::string("one scene-wide OMM array")
+                      : std::to_string(sum.arrays.size()) + " OMM arrays (one per geometry)") +
+          "\n");
+  out.put("  special indices (triangles): transparent " + std::to_string(s.special[0]) + ", opaque " +
           std::to_string(s.special[1]) + ", unknown-transparent " + std::to_string(s.special[2]) +
           ", unknown-opaque " + std::to_string(s.special[3]) + "\n");
-  out.put("  micromaps: " + std::to_string(s.micromapTriangles) + " triangles use " +
-          std::to_string(s.uniqueMicromaps) + " unique micromaps, levels " + levelList(s.levelMicromaps) +
-          "\n");
-  out.put("  data " + std::to_string(s.dataBytes) + " bytes (" + humanBytes(s.dataBytes) + "), descriptors " +
-          std::to_string(s.descriptorBytes) + ", index buffer " + std::to_string(s.indexBytes) + "\n");
-  out.put("  unknown: " + std::to_string(s.unknownMicroTriangles) + " of " +
-          std::to_string(s.microTriangles) + " micro-triangles (" + frac + ")\n");
+  out.put("  micromaps: " + std::to_string(s.micromapTriangles) + " triangles reference " +
+          std::to_string(sum.arrayTotal.uniqueMicromaps) + " unique micromaps, levels (level:micromaps) " +
+          levelList(sum.arrayTotal.levelMicromaps) + "\n");
+  out.put("  build buffers: data " + bytesText(sum.arrayTotal.dataBytes) + ", descriptors " +
+          bytesText(sum.arrayTotal.descriptorBytes) + ", index buffers " + bytesText(s.indexBytes) + "\n");
+  out.put("  unknown: " + std::to_string(s.unknownMicroTriangles) + " of the " + std::to_string(s.microTriangles) +
+          " micro-triangles of the triangles with micromaps (" + frac + ")\n");
   return kExitOk;
 }
 
@@ -326,14 +347,18 @@ void setup(CLI::App& root) {
                   "2-state: what unknown micro-triangles become (default majority)")
       ->check(CLI::IsMember({"opaque", "transparent", "majority"}));
   cmd->add_option("--max-bytes", o->maxBytes,
-                  "lower the highest levels until the data of all geometries fits in B bytes")
+                  "lower a scene-wide level cap until the data of all arrays fits in B bytes")
       ->check(CLI::NonNegativeNumber);  // CLI11 would wrap "-5" into 2^64 - 5
   cmd->add_flag("--estimate", o->estimate,
                 "print the data size from the levels alone, bake nothing, write nothing");
   cmd->add_option("--threads,-j", o->threads, "worker threads (default: all)");
   cmd->add_option("--encoding,-e", o->encodings,
-                  "also store these encodings (docs/encodings.md): comma list of flat, dfs, dfs-fast, rank, "
-                  "hybrid, or all");
+                  "also store these encodings of each array (docs/encodings.md): comma list of flat, dfs, "
+                  "dfs-fast, rank, hybrid, or all");
+  cmd->add_option("--arrays", o->arrays,
+                  "scene (default): one OMM array shared by all geometries, identical maps stored once; "
+                  "geometry: one array per geometry")
+      ->check(CLI::IsMember({"scene", "geometry"}));
   cmd->add_flag("--json", o->json, "print the summary as JSON (keys in docs/cli.md)");
   cmd->add_flag("--blend-as-mask", o->blendAsMask, "bake glTF BLEND materials as MASK with their cutoff");
   cmd->callback([o] { somm::cli::setExitCode(run(*o)); });

@@ -118,7 +118,7 @@ int32_t OmmArrayBuilder::intern(const Micromap& map) {
   return id;
 }
 
-UsageHistograms countUsage(std::span<const TriangleDescriptor> descriptors, std::span<const int32_t> indices) {
+UsageHistograms countUsage(Span<const TriangleDescriptor> descriptors, Span<const int32_t> indices) {
   auto bump = [](std::vector<UsageCount>& hist, const TriangleDescriptor& d) {
     auto it = std::find_if(hist.begin(), hist.end(), [&](const UsageCount& c) {
       return c.subdivisionLevel == d.subdivisionLevel && c.format == d.format;
@@ -169,7 +169,7 @@ Micromap mapOf(const OmmArray& a, int32_t descriptor) {
 
 std::vector<UsageCount> SceneMicromaps::triangleHistogram(uint32_t g) const {
   const OmmArray& a = arrayOf(g);
-  return countUsage(a.descriptors, std::span<const int32_t>(indices(g), geometries[g].triangleCount)).triangles;
+  return countUsage(a.descriptors, Span<const int32_t>(indices(g), geometries[g].triangleCount)).triangles;
 }
 
 OmmArray SceneMicromaps::standalone(uint32_t g) const {

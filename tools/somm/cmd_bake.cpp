@@ -213,8 +213,8 @@ int run(const Options& o) {
   const bool sceneArray = o.arrays == "scene";
 
   Progress progress;
-  // One scene-wide bake in the library (masks shared, identical triangles classified once, --max-bytes over all
-  // geometries). BLEND materials (without --blend-as-mask, which the loader applied) are not alpha-tested: no
+  // One bake of the whole scene in the library (masks shared, identical triangles classified once, --max-bytes over
+  // all arrays). BLEND materials (without --blend-as-mask, which the loader applied) are not alpha-tested: no
   // micromaps, every triangle unknown (the renderer's any-hit shader decides, as without OMMs).
   somm::BakeOptions sbo = bo;
   sbo.layout = sceneArray ? somm::ArrayLayout::SceneWide : somm::ArrayLayout::PerGeometry;

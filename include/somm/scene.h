@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm — scenes loaded from glTF 2.0 (.gltf/.glb) and OBJ/MTL: what the baker and the ray tracer consume.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm — CPU ray tracing with opacity micromaps on Embree 3: every any-hit method of the paper side by side.
 //
 // A TraceWorld is a loaded Scene flattened into world space (every instance's vertices transformed once) and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm — glTF 2.0 (.gltf / .glb) loading via tinygltf. tinygltf parses the JSON and the buffers; everything
 // else (accessor bounds, images, node hierarchy) is validated and converted here, so malformed files give
 // errors, not crashes.

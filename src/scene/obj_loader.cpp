@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm — Wavefront OBJ/MTL loading via tinyobjloader.
 //
 // Geometries: one per (shape, material) in order of first appearance, triangles in file order, polygons

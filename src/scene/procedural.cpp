@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm — procedural alpha textures and scenes (deterministic, platform independent).
 #include "somm/procedural.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm_trace: Embree scene, any-hit filter functions per method, the render workload.
 #include "somm/trace.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm render SCENE [--omm FILE.somm] --method M -o out.png [--json]: ray traces the scene on Embree with one
 // any-hit method and writes the image.
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm CLI — shared setup of `somm render` and `somm bench`.
 #include "trace_cli.h"
 
@@ -153,28 +154,27 @@ std::unique_ptr<PreparedTrace> prepareTrace(const char* command, const TraceCliO
       exitCode = kExitFailure;
       return nullptr;
     }
-    std::vector<OmmArray> perGeometry;
     bool four = true;
     for (size_t g = 0; g < file->geometries.size(); ++g) {
-      const SommGeometry& sg = file->geometries[g];
-      if (sg.info.triangleCount != scene.geometries[g].triangleCount()) {
+      const GeometryInfo& sg = file->geometries[g];
+      if (sg.triangleCount != scene.geometries[g].triangleCount()) {
         printError(command, o.omm + ": geometry " + std::to_string(g) + " has " +
-                                std::to_string(sg.info.triangleCount) + " triangles, the scene's has " +
+                                std::to_string(sg.triangleCount) + " triangles, the scene's has " +
                                 std::to_string(scene.geometries[g].triangleCount()));
         exitCode = kExitFailure;
         return nullptr;
       }
       Material& m = scene.materials[scene.geometries[g].material];
       if (m.alphaTested()) {
-        if (sg.info.format == Format::TwoState) four = false;
+        if (sg.format == Format::TwoState) four = false;
         // Trace against the alpha test the file was baked for.
-        m.alphaCutoff = sg.info.cutoff;
-        m.sampler = sg.info.sampler;
+        m.alphaCutoff = sg.cutoff;
+        m.sampler = sg.sampler;
       }
-      perGeometry.push_back(sg.flat);
     }
-    // The v1 file stores one array per geometry.
-    auto arrays = std::make_shared<const SceneMicromaps>(perGeometryMicromaps(std::move(perGeometry)));
+    // The file's scene micromaps as they are (version 2: arrays shared by geometries; version 1 is read as
+    // per-geometry arrays).
+    auto arrays = std::make_shared<const SceneMicromaps>(std::move(file->micromaps));
     if (four) {
       flat4 = arrays;
       flat2 = demote(*arrays);

@@ -2,7 +2,8 @@
 // Rays/s per any-hit method on a procedural layered leaf-card scene (many overlapping alpha-tested quads) and, when
 // ../shared/assets/foliage is present (or $SOMM_FOLIAGE_DIR), on real foliage scenes with cameras into the foliage,
 // as the median of per-run ratios to `texture` measured interleaved in the same run. filter_per_ray shows the
-// special-index split of somm/embree.h (fully opaque / transparent triangles run no filter). Every method's image is checked against texture:
+// special-index split of somm/embree.h (fully opaque / transparent triangles run no filter). Every method's
+// image is checked against texture:
 // 4-state methods and the bitmask must be pixel-identical (SkipWithError otherwise); 2-state and opaque
 // report the % of pixels differing.
 #include <benchmark/benchmark.h>

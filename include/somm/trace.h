@@ -72,7 +72,9 @@ struct TraceCounters {
   uint64_t rays() const noexcept { return primaryRays + shadowRays; }
   TraceCounters& operator+=(const TraceCounters& o) noexcept;
   friend bool operator==(const TraceCounters& a, const TraceCounters& b) noexcept {
-    return a.primaryRays == b.primaryRays && a.shadowRays == b.shadowRays && a.filterCalls == b.filterCalls && a.textureTests == b.textureTests && a.micromapLookups == b.micromapLookups;
+    return a.primaryRays == b.primaryRays && a.shadowRays == b.shadowRays && a.filterCalls == b.filterCalls &&
+           a.textureTests == b.textureTests && a.micromapLookups == b.micromapLookups &&
+           a.primaryHits == b.primaryHits && a.alphaTestedPixels == b.alphaTestedPixels;
   }
   friend bool operator!=(const TraceCounters& a, const TraceCounters& b) noexcept { return !(a == b); }
 };
@@ -136,9 +138,6 @@ class TraceWorld {
   std::unique_ptr<Impl> impl_;
 };
 
-// Per-geometry micromap arrays (bakeSimple's result); tracers take SceneMicromaps (perGeometryMicromaps converts).
-using OmmArrays = std::vector<OmmArray>;
-
 class Tracer {
  public:
   ~Tracer();
@@ -163,7 +162,8 @@ class Tracer {
 
 Result<std::unique_ptr<Tracer>> makeOpaqueTracer(std::shared_ptr<const TraceWorld> world);
 Result<std::unique_ptr<Tracer>> makeTextureTracer(std::shared_ptr<const TraceWorld> world);
-// Bitmask at grid resolution 2^level × 2^level (2 bits per cell), built with classifyRegion.
+// Bitmask at grid resolution 2^level × 2^level (2 bits per cell), classified by the library baker (bakeTriangle at
+// that level; a square cell is known where both its micro-triangles agree).
 Result<std::unique_ptr<Tracer>> makeBitmaskTracer(std::shared_ptr<const TraceWorld> world, uint32_t level);
 // Flat micromaps (the spec layout), attached with somm/embree.h: special-index triangles leave the filter path
 // (fully transparent: not in the BVH; fully opaque: no filter) unless splitSpecialIndices is false. `format`
@@ -186,21 +186,6 @@ struct MicromapSet {
 // Any method by spec (state-overlay uses flat4; compressed encodings are built per array of the micromaps).
 Result<std::unique_ptr<Tracer>> makeTracer(std::shared_ptr<const TraceWorld> world, const MethodSpec& method,
                                            const MicromapSet& micromaps);
-
-// ---- conservative classification (bitmask build, and a simple stand-alone micromap bake) ----
-
-// Classifies the region of a triangle given by barycentric points (u, v) (the closed convex hull of `count`
-// points, count <= 8) against the material's alpha test: Opaque / Transparent only if every hit a ray tracer
-// can report in the region — interpolated in float as the texture method does, with a safety margin — passes
-// / fails the test; else UnknownOpaque or UnknownTransparent (whichever the texels around the region's centre
-// favour).
-State classifyRegion(const Material& material, const float* triUVs /* s0 t0 s1 t1 s2 t2 */, const float* u,
-                     const float* v, uint32_t count) noexcept;
-
-// A simple conservative bake with classifyRegion (bounding-box footprint, so looser than somm_bake's): one
-// OmmArray per geometry at a fixed level; non-alpha-tested geometries get an empty array. Used by tests and
-// as the bitmask's rule.
-OmmArrays bakeSimple(const Scene& scene, uint32_t level, Format format);
 
 // UV of the hit (u, v) on triangle (s0 t0 s1 t1 s2 t2), exactly as the texture method computes it.
 inline void interpolateUV(const float* uv, float u, float v, float& s, float& t) noexcept {

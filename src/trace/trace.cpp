@@ -13,10 +13,12 @@
 #include <cstdio>
 #include <limits>
 #include <map>
+#include <optional>
 
 #include "somm/encode.h"
 #include "somm/bake.h"
 #include "somm/embree.h"
+#include "somm/state_colours.h"
 #include "trace_internal.h"
 
 namespace somm {
@@ -477,18 +479,40 @@ Result<std::unique_ptr<Tracer>> makeBitmaskTracer(std::shared_ptr<const TraceWor
       if (fresh) builds.push_back(t);
       source[t] = it->second;
     }
+    // The baker's own classification (somm/bake.h): bake the triangle at the grid's level; square cell (iu, iv)
+    // is the union of the closed upright micro-triangle (iu, iv) and the inverted one beside it, so it is known
+    // only where both agree. Diagonal cells (iu + iv = n - 1) hold the upright micro-triangle only (hits beyond
+    // the hypotenuse are rounding, within the bake margin); cells with iu + iv = n are reachable only by rounding at
+    // the hypotenuse corner shared by the upright micro-triangles (iu - 1, iv) and (iu, iv - 1); cells further out
+    // cannot be hit and stay unknown.
+    std::optional<AlphaMask> alphaMask;
+    if (gd.alpha) alphaMask.emplace(*gd.alpha, gd.sampler, gd.cutoff);
+    const State constant = alphaTestPasses(gd.constantAlpha, gd.cutoff) ? State::Opaque : State::Transparent;
     tbb::parallel_for(size_t(0), builds.size(), [&](size_t b) {
       const size_t t = builds[b];
       const float* uv = gd.triUVs.data() + 6 * t;
       uint8_t* m = mask.data() + t * bytesPerTriangle;
+      std::optional<TriangleBake> tb;
+      if (alphaMask)
+        tb.emplace(bakeTriangle(*alphaMask, {uv[0], uv[1]}, {uv[2], uv[3]}, {uv[4], uv[5]}, level, Format::FourState));
       const float inv = 1.0f / float(n);
+      auto micro = [&](int64_t iu, int64_t iv, bool inverted) -> State {
+        if (!tb) return constant;
+        const float off = inverted ? 2.0f / 3.0f : 1.0f / 3.0f;
+        return tb->map.get(baryToIndex((float(iu) + off) * inv, (float(iv) + off) * inv, level));
+      };
+      auto combine = [](State a, State b) {
+        return a == b && isKnown(a) ? a : State::UnknownOpaque;
+      };
       for (uint32_t iv = 0; iv < n; ++iv)
         for (uint32_t iu = 0; iu < n; ++iu) {
-          // The closed square cell (hits clamp into the grid, so cells beyond the diagonal are classified
-          // whole).
-          const float us[4] = {iu * inv, (iu + 1) * inv, iu * inv, (iu + 1) * inv};
-          const float vs[4] = {iv * inv, iv * inv, (iv + 1) * inv, (iv + 1) * inv};
-          const State st = classifyRegion(*gd.material, uv, us, vs, 4);
+          State st = State::UnknownOpaque;
+          if (iu + iv + 2 <= n)
+            st = combine(micro(iu, iv, false), micro(iu, iv, true));
+          else if (iu + iv + 1 == n)
+            st = micro(iu, iv, false);
+          else if (iu + iv == n)
+            st = combine(micro(int64_t(iu) - 1, iv, false), micro(iu, int64_t(iv) - 1, false));
           const uint32_t code = st == State::Transparent ? 0u : st == State::Opaque ? 1u : 2u;
           const uint32_t cell = iv * n + iu;
           m[cell >> 2] = uint8_t(m[cell >> 2] | (code << (2 * (cell & 3))));
@@ -636,18 +660,8 @@ V3 baseColor(const Material& m, float s, float t) {
   return c;
 }
 
-V3 stateColor(State s) {
-  switch (s) {
-    case State::Opaque:
-      return {0.45f, 0.8f, 0.45f};
-    case State::UnknownOpaque:
-      return {1.0f, 0.55f, 0.0f};
-    case State::UnknownTransparent:
-      return {0.95f, 0.25f, 0.2f};
-    case State::Transparent:
-      return {0.9f, 0.2f, 0.9f};
-  }
-  return {0, 0, 0};
+V3 rgb(const uint8_t* c) {
+  return {c[0] / 255.0f, c[1] / 255.0f, c[2] / 255.0f};
 }
 
 }  // namespace
@@ -737,8 +751,8 @@ RenderResult Tracer::render(const RenderSettings& settings) const {
           interpolateUV(gd.triUVs.data() + 6 * size_t(prim), rh.hit.u, rh.hit.v, s0, t0);
           V3 albedo = baseColor(*gd.material, s0, t0);
           if (kind == MethodKind::StateOverlay)
-            albedo = gd.alphaTested ? stateColor(overlay->stateUV(f.geometry, prim, rh.hit.u, rh.hit.v))
-                                    : V3{0.55f, 0.55f, 0.6f};
+            albedo = gd.alphaTested ? rgb(stateColour(overlay->stateUV(f.geometry, prim, rh.hit.u, rh.hit.v)))
+                                    : rgb(kNotAlphaTestedColour);
           const float ndl = dot(n, light);
           float direct = 0.0f;
           if (ndl > 0.0f) {
@@ -763,9 +777,8 @@ RenderResult Tracer::render(const RenderSettings& settings) const {
               if (sr.tfar < 0.0f) direct = 0.0f;
             }
           }
-          // The overlay keeps shading contrast low so that the state colours stay readable.
-          acc = add(acc, mul(albedo, kind == MethodKind::StateOverlay ? 0.65f + 0.35f * direct
-                                                                      : 0.3f + 0.7f * direct));
+          // The overlay is flat (no shading): lit and shadowed hits of one state have one colour.
+          acc = add(acc, kind == MethodKind::StateOverlay ? albedo : mul(albedo, 0.3f + 0.7f * direct));
         }
         local.alphaTestedPixels += work.filterCalls != filterCallsBefore;
         uint8_t* px = result.image.rgba.data() + (size_t(y) * W + x) * 4;

@@ -35,10 +35,13 @@ Image load(const std::string& path) {
   return im;
 }
 
-// Pixels whose colour is dominated by one channel (the state overlays), by channel r/g/b.
-std::array<size_t, 3> dominant(const Image& im) {
+// Pixels whose colour is dominated by one channel (the state overlays), by channel r/g/b; outside the legend
+// (top-left corner, at most 260×100 pixels) unless `legendOnly`, then only inside it.
+std::array<size_t, 3> dominant(const Image& im, bool legendOnly = false) {
   std::array<size_t, 3> n{};
   for (size_t i = 0; i < im.rgb.size(); i += 3) {
+    const size_t x = (i / 3) % size_t(im.w), y = (i / 3) / size_t(im.w);
+    if ((x < 260 && y < 100) != legendOnly) continue;
     const int r = im.rgb[i], g = im.rgb[i + 1], b = im.rgb[i + 2];
     if (r > g + 30 && r > b + 30) ++n[0];
     if (g > r + 30 && g > b + 30) ++n[1];
@@ -76,10 +79,14 @@ TEST(CliView, ColoursFollowTheStates) {
   auto d = dominant(im);
   EXPECT_GT(d[1], 100u);  // green: opaque
   EXPECT_EQ(d[0] + d[2], 0u);
+  d = dominant(im, true);  // the legend shows every state's swatch: green, orange and red, blue
+  EXPECT_GT(d[0], 40u);
+  EXPECT_GT(d[1], 40u);
+  EXPECT_GT(d[2], 40u);
   r = runSomm("view " + q(somm) + " --geometry " + std::to_string(blend) + " -o " + q(png) + " --size 256");
   ASSERT_EQ(r.exitCode, 0) << r.err;
   d = dominant(load(png));
-  EXPECT_GT(d[0], 100u);  // red: unknown-opaque
+  EXPECT_GT(d[0], 100u);  // orange: unknown-opaque
   EXPECT_EQ(d[1] + d[2], 0u);
   r = runSomm("view " + q(somm) + " --geometry " + std::to_string(mixed) + " --triangles 0-1 -o " + q(png));
   ASSERT_EQ(r.exitCode, 0) << r.err;

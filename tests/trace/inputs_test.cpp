@@ -118,6 +118,15 @@ TEST(TraceInputs, ObjScene) {
   traceAndCheck(std::move(s).value(), std::nullopt);
 }
 
+// The bundled real tree (data/redeclipse-tree01), with a camera inside the crown as in `make demo`.
+TEST(TraceInputs, BundledRedEclipseTree) {
+  auto s = loadScene(std::string(SOMM_DATA_DIR) + "/redeclipse-tree01/tree01.obj");
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  for (Material& m : s->materials) m.alphaCutoff = 0.7f;
+  const Traced t = traceAndCheck(std::move(s).value(), Camera{{0, -260, 200}, {30, 0, 250}, {0, 0, 1}, 1.05f});
+  EXPECT_GT(t.texture.alphaTestedPixels, 96u * 72u / 2);
+}
+
 TEST(TraceInputs, GltfScene) {
   auto s = loadScene(std::string(SOMM_DATA_DIR) + "/oak-tree/oaktree.gltf");
   ASSERT_TRUE(s.ok()) << s.error().message;

@@ -8,6 +8,7 @@
 
 #include "command.h"
 #include "file_summary.h"
+#include "legend.h"
 #include "trace_cli.h"
 
 namespace {
@@ -38,7 +39,9 @@ int run(const Options& o) {
     printError("render", tracer.error().message);
     return kExitFailure;
   }
-  const somm::RenderResult r = (*tracer)->render(p->settings);
+  somm::RenderResult r = (*tracer)->render(p->settings);
+  if (spec->kind == somm::MethodKind::StateOverlay)
+    drawStateLegend(r.image.rgba.data(), r.image.width, r.image.height, 4, true);
   if (somm::Status s = somm::writePng(o.output, r.image); !s) {
     printError("render", s.error().message);
     return kExitFailure;
@@ -96,8 +99,9 @@ void setup(CLI::App& root) {
                           "Ray trace a scene on the CPU (Embree) with one any-hit method and write a PNG. "
                           "Methods: opaque, texture, "
                           "bitmask, omm2-<encoding>, omm4-<encoding>, state-overlay (hits coloured by "
-                          "micromap state: green opaque, "
-                          "orange unknown-opaque, red unknown-transparent, grey not alpha-tested).");
+                          "micromap state, flat colours "
+                          "with a legend: green opaque, orange unknown-opaque, red unknown-transparent, grey not "
+                          "alpha-tested).");
   somm::cli::addTraceOptions(cmd, opts->trace);
   cmd->add_option("--method,-m", opts->method, "any-hit method (default texture)");
   cmd->add_option("--output,-o", opts->output, "output PNG")->required();

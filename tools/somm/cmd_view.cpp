@@ -9,6 +9,8 @@
 #include <string>
 
 #include "command.h"
+#include "legend.h"
+#include "somm/state_colours.h"
 #include "somm/bird.h"
 #include "somm/scene.h"
 #include "somm/somm_file.h"
@@ -21,8 +23,7 @@ struct Options {
   uint32_t size = 1024;
 };
 
-// Overlay colours by State: transparent, opaque, unknown-transparent, unknown-opaque.
-constexpr uint8_t kColours[4][3] = {{30, 90, 255}, {40, 210, 60}, {255, 170, 0}, {230, 40, 40}};
+// Overlay colours: somm/state_colours.h (the one table of every picture).
 constexpr float kOverlay = 0.55f;
 
 bool parseRange(const std::string& s, uint64_t& a, uint64_t& b) {
@@ -162,7 +163,7 @@ int run(const Options& o) {
         const size_t p = size_t(y) * w + size_t(x);
         for (int c = 0; c < 3; ++c)
           rgb[p * 3 + size_t(c)] =
-              rgb[p * 3 + size_t(c)] * (1.0f - kOverlay) + kColours[int(s)][c] * kOverlay;
+              rgb[p * 3 + size_t(c)] * (1.0f - kOverlay) + somm::stateColour(s)[c] * kOverlay;
         id[p] = (t + 1) << 24 | (outlineMicro ? somm::baryToIndex(float(u), float(v), level) : 0u);
       }
   }
@@ -177,6 +178,7 @@ int run(const Options& o) {
         img[p * 3 + size_t(c)] =
             uint8_t(std::clamp(rgb[p * 3 + size_t(c)] * (edge ? 0.35f : 1.0f), 0.0f, 255.0f));
     }
+  drawStateLegend(img.data(), w, h, 3, false);
   std::vector<uint8_t> png;
   auto sink = [](void* ctx, void* data, int size) {
     auto* out = static_cast<std::vector<uint8_t>*>(ctx);

@@ -172,6 +172,8 @@ std::unique_ptr<PreparedTrace> prepareTrace(const char* command, const TraceCliO
         m.sampler = sg.sampler;
       }
     }
+    // The file's scene micromaps as they are (version 2: arrays shared by geometries; version 1 is read as
+    // per-geometry arrays).
     auto arrays = std::make_shared<const SceneMicromaps>(std::move(file->micromaps));
     if (four) {
       flat4 = arrays;
@@ -202,7 +204,7 @@ std::unique_ptr<PreparedTrace> prepareTrace(const char* command, const TraceCliO
       return nullptr;
     }
     const auto start = std::chrono::steady_clock::now();
-    bo.blend = BlendAs::Unknown;
+    bo.blend = BlendAs::Unknown;  // as somm bake: BLEND (without --blend-as-mask) is not alpha-tested
     for (Format f : {Format::FourState, Format::TwoState}) {
       bo.format = f;
       // One scene-wide array, as `somm bake` stores it: identical maps of all geometries stored once.

@@ -249,7 +249,6 @@ Result<SceneBake> bakeFromViews(const somm_bake_input& in, const somm_bake_optio
 
   SceneBake out;
   out.format = bo.format;
-  std::vector<OmmArray> arrays;
   uint64_t dataBytes = 0;
   double lastProgress = 0;
   auto report = [&](double f) {
@@ -262,9 +261,8 @@ Result<SceneBake> bakeFromViews(const somm_bake_input& in, const somm_bake_optio
     BakeOptions capped = bo;
     capped.level = std::min(bo.level, cap);
     capped.maxLevel = std::min(bo.maxLevel, cap);
-    arrays.clear();
+    std::vector<OmmArray> arrays;
     out.geometries.clear();
-    dataBytes = 0;
     uint64_t done = 0;
     for (size_t gi = 0; gi < geometries.size(); ++gi) {
       const Geometry& g = geometries[gi];
@@ -296,10 +294,14 @@ Result<SceneBake> bakeFromViews(const somm_bake_input& in, const somm_bake_optio
       }
       for (int32_t i : arrays.back().indices)
         if (isSpecialIndex(i)) ++info.specialCount[size_t(stateOfSpecialIndex(i))];
-      dataBytes += arrays.back().data.size();
       done += n;
       out.geometries.push_back(info);
     }
+    // The layout; the budget counts the data of the arrays as stored (a scene-wide array stores shared maps once).
+    out.micromaps = perGeometryMicromaps(std::move(arrays));
+    if (o.layout == SOMM_ARRAY_PER_SCENE) out.micromaps = mergeToSceneArray(out.micromaps);
+    dataBytes = 0;
+    for (const OmmArray& a : out.micromaps.arrays) dataBytes += a.data.size();
     return Ok{};
   };
   uint32_t cap = kMaxLevel;
@@ -312,8 +314,6 @@ Result<SceneBake> bakeFromViews(const somm_bake_input& in, const somm_bake_optio
   }
   out.levelCap = cap;
   report(1.0);
-  out.micromaps = perGeometryMicromaps(std::move(arrays));
-  if (o.layout == SOMM_ARRAY_PER_SCENE) out.micromaps = mergeToSceneArray(out.micromaps);
   return out;
 }
 

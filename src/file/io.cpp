@@ -120,4 +120,10 @@ Result<SommFile> readSommFile(const std::string& path) {
   return parseSomm(*bytes, path);
 }
 
+Result<SceneMicromaps> readSceneMicromaps(const std::string& path) {
+  auto file = readSommFile(path);
+  if (!file) return file.error();
+  return std::move(file->micromaps);
+}
+
 }  // namespace somm

@@ -71,6 +71,12 @@ class OmmArrayBuilder {
   int32_t add(const Micromap& map);
   // Appends a triangle with a special index directly.
   void addSpecial(State s);
+  // Stores a map (deduplicated; uniform maps are not stored) without appending a triangle; returns the index value
+  // add() would have stored for it.
+  int32_t intern(const Micromap& map);
+  // Appends a triangle with an index value an earlier add() / intern() returned (a descriptor of this array or a special
+  // index).
+  void addIndex(int32_t index) { array_.indices.push_back(index); }
 
   uint32_t triangleCount() const noexcept { return uint32_t(array_.indices.size()); }
   const OmmArray& array() const noexcept { return array_; }

@@ -92,10 +92,13 @@ void OmmArrayBuilder::grow() {
 }
 
 int32_t OmmArrayBuilder::add(const Micromap& map) {
-  if (auto u = map.uniformState()) {
-    addSpecial(*u);
-    return array_.indices.back();
-  }
+  const int32_t id = intern(map);
+  array_.indices.push_back(id);
+  return id;
+}
+
+int32_t OmmArrayBuilder::intern(const Micromap& map) {
+  if (auto u = map.uniformState()) return specialIndexFor(*u);
   const uint64_t h = hashMap(map);
   auto& bucket = buckets_[h & (buckets_.size() - 1)];
   const auto bytes = map.bytes();
@@ -103,17 +106,14 @@ int32_t OmmArrayBuilder::add(const Micromap& map) {
     if (s.hash != h) continue;
     const TriangleDescriptor& d = array_.descriptors[size_t(s.descriptor)];
     if (d.subdivisionLevel == map.level() && d.format == uint16_t(map.format()) &&
-        std::memcmp(array_.data.data() + d.dataOffset, bytes.data(), bytes.size()) == 0) {
-      array_.indices.push_back(s.descriptor);
+        std::memcmp(array_.data.data() + d.dataOffset, bytes.data(), bytes.size()) == 0)
       return s.descriptor;
-    }
   }
   const int32_t id = int32_t(array_.descriptors.size());
   array_.descriptors.push_back(
       TriangleDescriptor{uint32_t(array_.data.size()), uint16_t(map.level()), uint16_t(map.format())});
   array_.data.insert(array_.data.end(), bytes.begin(), bytes.end());
   bucket.push_back(Slot{h, id});
-  array_.indices.push_back(id);
   if (++uniqueCount_ > buckets_.size() * 2) grow();
   return id;
 }

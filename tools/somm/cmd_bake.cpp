@@ -306,7 +306,7 @@ int run(const Options& o) {
   char frac[32], secs[32];
   std::snprintf(frac, sizeof frac, "%.3f%%", 100.0 * s.unknownFraction());
   std::snprintf(secs, sizeof secs, "%.2f", seconds);
-  out.put(o.output + ": " + std::to_string(sum.geometries.size()) + " geometries, " + std::to_string(s.triangles) +
+  out.put(o.output + ": " + counted(sum.geometries.size(), "geometry", "geometries") + ", " + std::to_string(s.triangles) +
           " triangles baked in " + secs + " s into " +
           (sceneArray ? std::string("one scene-wide OMM array")
                       : std::to_string(sum.arrays.size()) + " OMM arrays (one per geometry)") +

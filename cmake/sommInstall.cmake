@@ -43,5 +43,8 @@ else()
   set(SOMM_PC_LIBS_PRIVATE "")
   set(SOMM_PC_REQUIRES_PRIVATE "")
 endif()
+# Relocatable: the prefix is found from the .pc file's own directory (cmake --install --prefix P works).
+file(RELATIVE_PATH SOMM_PC_TO_PREFIX "/${CMAKE_INSTALL_LIBDIR}/pkgconfig" "/")
+string(REGEX REPLACE "/$" "" SOMM_PC_TO_PREFIX "${SOMM_PC_TO_PREFIX}")
 configure_file(${PROJECT_SOURCE_DIR}/cmake/somm.pc.in ${PROJECT_BINARY_DIR}/somm.pc @ONLY)
 install(FILES ${PROJECT_BINARY_DIR}/somm.pc DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig)

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 // bake_from_memory_cpp17 [DIR]: the input of bake_from_memory.c through the C++ API (C++17): somm::bakeGeometry,
 // the spec buffers, and a compressed (rank) array with random access. With DIR it writes the buffers as
-// DIR/geometry-0/{data,triangles,index}.bin, byte-identical to the C API's and to `somm bake` + `somm export`.
+// DIR/array-0/{data,triangles}.bin and DIR/geometry-0/index.bin, byte-identical to the C API's and to `somm bake` + `somm export`.
 #include <sys/stat.h>
 
 #include <cstdio>
@@ -50,12 +50,13 @@ int main(int argc, char** argv) {
               a.data.size() + triangles.size() + indices.size(), mismatches == 0 ? "yes" : "NO");
   if (mismatches) return 1;
   if (argc > 1) {
-    const std::string dir = argv[1], sub = dir + "/geometry-0";
+    const std::string dir = argv[1], arr = dir + "/array-0", geo = dir + "/geometry-0";
     mkdir(dir.c_str(), 0777);
-    mkdir(sub.c_str(), 0777);
-    if (ex_write_file(sub.c_str(), "data.bin", a.data.data(), a.data.size()) ||
-        ex_write_file(sub.c_str(), "triangles.bin", triangles.data(), triangles.size()) ||
-        ex_write_file(sub.c_str(), "index.bin", indices.data(), indices.size())) {
+    mkdir(arr.c_str(), 0777);
+    mkdir(geo.c_str(), 0777);
+    if (ex_write_file(arr.c_str(), "data.bin", a.data.data(), a.data.size()) ||
+        ex_write_file(arr.c_str(), "triangles.bin", triangles.data(), triangles.size()) ||
+        ex_write_file(geo.c_str(), "index.bin", indices.data(), indices.size())) {
       std::fprintf(stderr, "bake_from_memory_cpp17: %s: cannot write the output files\n", dir.c_str());
       return 1;
     }

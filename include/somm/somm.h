@@ -8,7 +8,8 @@
  *  - Structs are initialised with their somm_*_default() function, then the fields of interest are set.
  *  - Inputs are views of the caller's memory, read during the call only (never retained).
  *  - Results live in an opaque object until the caller copies them into memory it owns: query the sizes
- *    (somm_bake_result_array_info), allocate (or map a staging buffer), copy (somm_bake_result_copy_array), destroy.
+ *    (somm_bake_result_array_info / _geometry_info), allocate (or map a staging buffer), copy
+ *    (somm_bake_result_copy_array / _copy_geometry), destroy.
  *  - Output buffers are little endian and byte-identical to the somm CLI's (`somm bake` + `somm export`).
  */
 #ifndef SOMM_SOMM_H
@@ -165,8 +166,9 @@ typedef enum somm_blend_policy {
 } somm_blend_policy;
 
 typedef enum somm_array_layout {
-  SOMM_ARRAY_PER_GEOMETRY = 0, /* one OMM array per geometry (what `somm bake` writes today) */
-  SOMM_ARRAY_PER_SCENE = 1     /* one array shared by all geometries, identical micromaps stored once */
+  SOMM_ARRAY_PER_SCENE = 0,   /* one array shared by all geometries, identical micromaps stored once (the default,
+                                 as `somm bake`) */
+  SOMM_ARRAY_PER_GEOMETRY = 1 /* one OMM array per geometry (`somm bake --arrays geometry`) */
 } somm_array_layout;
 
 /* Progress: fraction done in [0, 1], non-decreasing, called on the calling thread. Return non-zero to cancel
@@ -194,7 +196,7 @@ SOMM_API somm_sampler somm_sampler_default(void);    /* linear, repeat, repeat *
 SOMM_API somm_material somm_material_default(void);  /* MASK, cutoff 0.5, no texture, constant alpha 1 */
 SOMM_API somm_geometry somm_geometry_default(void);  /* no data, 32-bit indices, tight UVs, material 0 */
 SOMM_API somm_bake_options somm_bake_options_default(void); /* level 6, 4-state, majority, no budget, BLEND
-                                                               unknown, per-geometry arrays, all threads */
+                                                               unknown, one scene-wide array, all threads */
 
 /* ---- bake ---- */
 
@@ -205,14 +207,13 @@ SOMM_API somm_result somm_bake(const somm_bake_input* input, const somm_bake_opt
                                somm_bake_result** result, somm_error* error);
 SOMM_API void somm_bake_result_destroy(somm_bake_result* result); /* NULL is ignored */
 
-/* The sizes of one OMM array's buffers: allocate these, then somm_bake_result_copy_array. */
+/* The sizes of one OMM array's buffers (one VkMicromapEXT / DXR OMM array): allocate these, then
+ * somm_bake_result_copy_array. */
 typedef struct somm_array_info {
-  uint64_t data_size;             /* bytes: micromap data (VkMicromapBuildInfoEXT::data) */
-  uint32_t triangle_count;        /* records of 8 bytes (VkMicromapTriangleEXT): triangleArray, stride 8 */
-  uint32_t index_count;           /* one per triangle of the geometries using this array */
-  somm_index_type index_type;     /* UINT16 when every index fits, else UINT32 */
-  uint32_t usage_count_count;     /* entries of the micromap usage histogram (VkMicromapBuildInfoEXT) */
-  uint32_t triangle_usage_count_count; /* entries of the triangle usage histogram of the whole array */
+  uint64_t data_size;         /* bytes: micromap data (VkMicromapBuildInfoEXT::data) */
+  uint32_t triangle_count;    /* records of 8 bytes (VkMicromapTriangleEXT): triangleArray, stride 8 */
+  uint32_t usage_count_count; /* entries of the micromap usage histogram (VkMicromapBuildInfoEXT::pUsageCounts) */
+  uint32_t geometry_count;    /* geometries whose index buffers point into this array */
 } somm_array_info;
 
 /* Caller-owned destinations; a NULL pointer skips that buffer. Capacities in bytes (usage counts: entries). */
@@ -221,21 +222,18 @@ typedef struct somm_array_buffers {
   uint64_t data_capacity;
   void* triangles;
   uint64_t triangles_capacity;
-  void* indices;
-  uint64_t indices_capacity;
   somm_usage_count* usage_counts;
   uint32_t usage_counts_capacity;
-  somm_usage_count* triangle_usage_counts;
-  uint32_t triangle_usage_counts_capacity;
 } somm_array_buffers;
 
-/* Where one geometry's micromaps are: its index buffer is index_count entries at byte offset index_offset of
- * its array's index buffer (VkAccelerationStructureTrianglesOpacityMicromapEXT: indexBuffer + index_offset). */
+/* One geometry's OMM index buffer into its array (VkAccelerationStructureTrianglesOpacityMicromapEXT: micromap =
+ * array, indexType, indexBuffer, indexStride = index_type bytes, baseTriangle 0, pUsageCounts) and what the bake
+ * found. */
 typedef struct somm_geometry_info {
   uint32_t array;
-  uint32_t first_triangle;      /* = index_offset / index size */
-  uint32_t triangle_count;
-  uint64_t index_offset;        /* bytes */
+  uint32_t triangle_count;      /* = index count */
+  somm_index_type index_type;   /* UINT16 when every non-special index fits (<= 0xFFFB), else UINT32 */
+  uint64_t index_size;          /* bytes: triangle_count · index_type */
   uint32_t usage_count_count;   /* entries of this geometry's triangle usage histogram (for its BLAS build) */
   uint64_t special_count[4];    /* triangles with a special index, by somm_state */
   uint64_t micro_triangles;     /* Σ 4^level */
@@ -243,6 +241,13 @@ typedef struct somm_geometry_info {
   uint64_t non_finite_uv_triangles;
   uint32_t min_level, max_level;
 } somm_geometry_info;
+
+typedef struct somm_geometry_buffers {
+  void* indices; /* special indices −1..−4 as 0xFFFF..0xFFFC in 16 bits */
+  uint64_t indices_capacity;
+  somm_usage_count* usage_counts;
+  uint32_t usage_counts_capacity;
+} somm_geometry_buffers;
 
 SOMM_API uint32_t somm_bake_result_array_count(const somm_bake_result* result);
 SOMM_API uint32_t somm_bake_result_geometry_count(const somm_bake_result* result);
@@ -255,10 +260,8 @@ SOMM_API somm_result somm_bake_result_copy_array(const somm_bake_result* result,
                                                  const somm_array_buffers* buffers, somm_error* error);
 SOMM_API somm_result somm_bake_result_geometry_info(const somm_bake_result* result, uint32_t geometry,
                                                     somm_geometry_info* info, somm_error* error);
-/* This geometry's triangle usage histogram: `capacity` entries at `counts` (info.usage_count_count needed). */
-SOMM_API somm_result somm_bake_result_copy_geometry_usage(const somm_bake_result* result, uint32_t geometry,
-                                                          somm_usage_count* counts, uint32_t capacity,
-                                                          somm_error* error);
+SOMM_API somm_result somm_bake_result_copy_geometry(const somm_bake_result* result, uint32_t geometry,
+                                                    const somm_geometry_buffers* buffers, somm_error* error);
 
 /* ---- compressed arrays (docs/encodings.md) ---- */
 

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
-// C API bake: memory views → Geometry / Material → bakeGeometry, with the scene-level policy of `somm bake`
-// (tools/somm/cmd_bake.cpp): BLEND triangles unknown-opaque unless baked as masks, the scene-wide byte budget by
-// lowering a global level cap one step at a time. Output is byte-identical to the CLI's for the same input.
+// C API bake: the C views are checked (messages in the C API's terms), mapped 1:1 onto the library's views
+// (somm/bake.h: TextureView, MaterialInput, GeometryInput) and baked by bakeScene — the same scene-level bake
+// (BLEND policy, scene-wide budget, layout) that `somm bake` runs, so the output is byte-identical to the CLI's.
 #include "bake_views.h"
 
 #include <algorithm>
@@ -39,7 +39,9 @@ uint32_t channels(somm_texel_format f) {
 }
 
 // Alpha as the scene loaders compute it (src/scene/image_io.cpp): unorm v / (2^bits − 1) in double, then float.
-Result<std::shared_ptr<const AlphaTexture>> convertTexture(const somm_texture& t, const std::string& what) {
+// Checks a texture view; with `fill`, also converts it to an AlphaTexture (otherwise returns null).
+Result<std::shared_ptr<const AlphaTexture>> convertTexture(const somm_texture& t, const std::string& what,
+                                                           bool fill) {
   const uint32_t tb = texelBytes(t.format);
   if (tb == 0) return invalid(what + ".format " + std::to_string(int(t.format)) + " is not a somm_texel_format");
   if (t.alpha_channel >= channels(t.format))
@@ -59,11 +61,22 @@ Result<std::shared_ptr<const AlphaTexture>> convertTexture(const somm_texture& t
   if (uint64_t(t.size) < need)
     return invalid(what + ".size " + std::to_string(t.size) + " is less than the " + std::to_string(need) +
                    " bytes the texture needs");
+  const auto* base = static_cast<const unsigned char*>(t.data);
+  if (!fill) {
+    if (t.format == SOMM_TEXEL_R32F)
+      for (uint32_t y = 0; y < t.height; ++y)
+        for (uint32_t x = 0; x < t.width; ++x) {
+          float a;
+          std::memcpy(&a, base + size_t(y) * pitch + size_t(x) * 4, 4);
+          if (std::isnan(a))
+            return invalid(what + ": texel (" + std::to_string(x) + ", " + std::to_string(y) + ") is NaN");
+        }
+    return std::shared_ptr<const AlphaTexture>();
+  }
   auto out = std::make_shared<AlphaTexture>();
   out->width = t.width;
   out->height = t.height;
   out->alpha.resize(size_t(t.width) * t.height);
-  const auto* base = static_cast<const unsigned char*>(t.data);
   const uint32_t c = t.alpha_channel;
   for (uint32_t y = 0; y < t.height; ++y) {
     const unsigned char* row = base + size_t(y) * pitch;
@@ -129,7 +142,7 @@ Result<Material> convertMaterial(const somm_material& m, uint32_t index, const s
   out.sampler = *smp;
   if (out.alphaMode == AlphaMode::Opaque) return out;
   if (m.texture) {
-    auto tex = convertTexture(*m.texture, what + ".texture");
+    auto tex = convertTexture(*m.texture, what + ".texture", false);
     if (!tex) return tex.error();
     out.alpha = *tex;
   } else {
@@ -214,28 +227,78 @@ Result<SceneBake> bakeFromViews(const somm_bake_input& in, const somm_bake_optio
   if (in.geometry_count && !in.geometries) return invalid("input.geometries is NULL");
   if (in.material_count && !in.materials) return invalid("input.materials is NULL");
 
-  std::vector<Material> materials;
-  materials.reserve(in.material_count);
+  // Check the views the library cannot check itself (texture sizes, enum values, index ranges), then map them.
+  std::vector<std::string> names;
+  names.reserve(size_t(in.material_count) + in.geometry_count);
+  std::vector<TextureView> textures;
+  std::vector<MaterialInput> materials(in.material_count);
   for (uint32_t m = 0; m < in.material_count; ++m) {
-    auto r = convertMaterial(in.materials[m], m, o);
-    if (!r) return r.error();
-    materials.push_back(std::move(*r));
+    const somm_material& cm = in.materials[m];
+    const std::string what = "materials[" + std::to_string(m) + "]";
+    // convertMaterial checks every field (and, for a texture, its size against width, height, pitch and format).
+    auto checked = convertMaterial(cm, m, o);
+    if (!checked) return checked.error();
+    MaterialInput& mi = materials[m];
+    names.push_back(what);
+    mi.name = names.back().c_str();
+    mi.alpha = cm.alpha_mode == SOMM_ALPHA_OPAQUE  ? MaterialAlpha::Opaque
+               : cm.alpha_mode == SOMM_ALPHA_BLEND ? MaterialAlpha::Blend
+                                                   : MaterialAlpha::Tested;
+    mi.cutoff = cm.cutoff;
+    mi.constantAlpha = cm.constant_alpha;
+    mi.sampler = checked->sampler;
+    if (cm.texture && cm.alpha_mode != SOMM_ALPHA_OPAQUE) {
+      const somm_texture& t = *cm.texture;
+      TextureView v;
+      v.data = t.data;
+      v.width = t.width;
+      v.height = t.height;
+      v.rowPitch = t.row_pitch;
+      v.format = t.format == SOMM_TEXEL_R8       ? TexelFormat::R8
+                 : t.format == SOMM_TEXEL_RG8    ? TexelFormat::RG8
+                 : t.format == SOMM_TEXEL_RGBA8  ? TexelFormat::RGBA8
+                 : t.format == SOMM_TEXEL_R16    ? TexelFormat::R16
+                 : t.format == SOMM_TEXEL_RGBA16 ? TexelFormat::RGBA16
+                                                 : TexelFormat::R32F;
+      v.alphaChannel = t.alpha_channel;
+      v.name = mi.name;
+      mi.texture = int32_t(textures.size());
+      textures.push_back(v);
+    }
   }
-  std::vector<Geometry> geometries;
-  geometries.reserve(in.geometry_count);
-  uint64_t totalTriangles = 0;
+  std::vector<GeometryInput> geometries(in.geometry_count);
   for (uint32_t g = 0; g < in.geometry_count; ++g) {
     const somm_geometry& v = in.geometries[g];
+    const std::string what = "geometries[" + std::to_string(g) + "]";
     if (v.material >= in.material_count)
-      return invalid("geometries[" + std::to_string(g) + "].material " + std::to_string(v.material) +
-                     " is out of range (" + std::to_string(in.material_count) + " materials)");
-    const Material& m = materials[v.material];
-    const bool needUvs = m.alphaMode == AlphaMode::Mask && m.alpha;
-    auto r = convertGeometry(v, g, needUvs);
-    if (!r) return r.error();
-    totalTriangles += r->triangleCount();
-    geometries.push_back(std::move(*r));
+      return invalid(what + ".material " + std::to_string(v.material) + " is out of range (" +
+                     std::to_string(in.material_count) + " materials)");
+    const somm_material& m = in.materials[v.material];
+    const bool needUvs = m.texture && m.alpha_mode != SOMM_ALPHA_OPAQUE &&
+                         (m.alpha_mode != SOMM_ALPHA_BLEND || o.blend == SOMM_BLEND_AS_MASK);
+    auto checked = convertGeometry(v, g, needUvs);  // index ranges, strides, NULL pointers
+    if (!checked) return checked.error();
+    GeometryInput& gi = geometries[g];
+    names.push_back(what);
+    gi.name = names.back().c_str();
+    gi.uvs = v.uvs;
+    gi.uvStride = v.uv_stride;
+    gi.vertexCount = v.vertex_count;
+    gi.indices = v.indices;
+    gi.indexFormat = v.index_type == SOMM_INDEX_UINT16   ? IndexFormat::UInt16
+                     : v.index_type == SOMM_INDEX_UINT32 ? IndexFormat::UInt32
+                                                         : IndexFormat::None;
+    gi.triangleCount = v.triangle_count;
+    gi.material = v.material;
+    if (!needUvs) gi.uvs = nullptr, gi.uvStride = 0;
   }
+  BakeInputs inputs;
+  inputs.textures = textures.data();
+  inputs.textureCount = uint32_t(textures.size());
+  inputs.materials = materials.data();
+  inputs.materialCount = uint32_t(materials.size());
+  inputs.geometries = geometries.data();
+  inputs.geometryCount = uint32_t(geometries.size());
 
   BakeOptions bo;
   bo.level = o.level;
@@ -245,75 +308,30 @@ Result<SceneBake> bakeFromViews(const somm_bake_input& in, const somm_bake_optio
   }
   bo.format = o.format == SOMM_FORMAT_2_STATE ? Format::TwoState : Format::FourState;
   bo.unknownAs = UnknownAs(o.unknown_as);
+  bo.maxBytes = o.max_bytes;
   bo.threads = o.threads;
+  bo.blend = o.blend == SOMM_BLEND_AS_MASK ? BlendAs::Mask : BlendAs::Unknown;
+  bo.layout = o.layout == SOMM_ARRAY_PER_GEOMETRY ? ArrayLayout::PerGeometry : ArrayLayout::SceneWide;
+  if (o.progress)
+    bo.progress = [&o](double f) -> bool { return o.progress(f, o.progress_user) == 0; };
+  auto baked = bakeScene(inputs, bo);
+  if (!baked) return baked.error();
 
   SceneBake out;
   out.format = bo.format;
-  std::vector<OmmArray> arrays;
-  uint64_t dataBytes = 0;
-  double lastProgress = 0;
-  auto report = [&](double f) {
-    f = std::max(lastProgress, std::min(1.0, f));
-    lastProgress = f;
-    if (o.progress && o.progress(f, o.progress_user) != 0) throw Cancelled{};
-  };
-  // One pass over the scene with levels capped at `cap` (as cmd_bake.cpp's bakeScene).
-  auto bakePass = [&](uint32_t cap) -> Status {
-    BakeOptions capped = bo;
-    capped.level = std::min(bo.level, cap);
-    capped.maxLevel = std::min(bo.maxLevel, cap);
-    arrays.clear();
-    out.geometries.clear();
-    dataBytes = 0;
-    uint64_t done = 0;
-    for (size_t gi = 0; gi < geometries.size(); ++gi) {
-      const Geometry& g = geometries[gi];
-      const Material& m = materials[g.material];
-      const uint32_t n = g.triangleCount();
-      GeometryBakeInfo info;
-      if (m.alphaMode == AlphaMode::Blend) {
-        OmmArrayBuilder b;
-        for (uint32_t t = 0; t < n; ++t) b.addSpecial(State::UnknownOpaque);
-        arrays.push_back(b.finish());
-        info.microTriangles = n;
-        info.unknownMicroTriangles = n;
-      } else {
-        capped.progress = [&](double f) {
-          report((double(done) + f * n) / double(std::max<uint64_t>(1, totalTriangles)));
-        };
-        auto baked = bakeGeometry(g, m, capped);
-        if (!baked) return baked.error();
-        info.microTriangles = baked->stats.microTriangles;
-        info.unknownMicroTriangles = baked->stats.unknownMicroTriangles;
-        info.nonFiniteUvTriangles = baked->stats.nonFiniteUvTriangles;
-        uint32_t lo = kMaxLevel, hi = 0;
-        for (uint8_t l : baked->levels) lo = std::min<uint32_t>(lo, l), hi = std::max<uint32_t>(hi, l);
-        for (const TriangleDescriptor& d : baked->array.descriptors)
-          lo = std::min<uint32_t>(lo, d.subdivisionLevel), hi = std::max<uint32_t>(hi, d.subdivisionLevel);
-        info.minLevel = lo <= hi ? lo : 0;
-        info.maxLevel = lo <= hi ? hi : 0;
-        arrays.push_back(std::move(baked->array));
-      }
-      for (int32_t i : arrays.back().indices)
-        if (isSpecialIndex(i)) ++info.specialCount[size_t(stateOfSpecialIndex(i))];
-      dataBytes += arrays.back().data.size();
-      done += n;
-      out.geometries.push_back(info);
-    }
-    return Ok{};
-  };
-  uint32_t cap = kMaxLevel;
-  if (Status s = bakePass(cap); !s) return s.error();
-  if (o.max_bytes > 0 && dataBytes > o.max_bytes) {
-    uint32_t top = 0;
-    for (const GeometryBakeInfo& g : out.geometries) top = std::max(top, g.maxLevel);
-    for (cap = top; dataBytes > o.max_bytes && cap-- > 0;)
-      if (Status s = bakePass(cap); !s) return s.error();
+  out.levelCap = baked->total.levelCap;
+  out.micromaps = std::move(baked->micromaps);
+  out.geometries.reserve(baked->geometries.size());
+  for (const GeometryBake& g : baked->geometries) {
+    GeometryBakeInfo info;
+    info.specialCount = g.stats.specialCount;
+    info.microTriangles = g.stats.microTriangles;
+    info.unknownMicroTriangles = g.stats.unknownMicroTriangles;
+    info.nonFiniteUvTriangles = g.stats.nonFiniteUvTriangles;
+    info.minLevel = g.stats.minLevel;
+    info.maxLevel = g.stats.maxLevel;
+    out.geometries.push_back(info);
   }
-  out.levelCap = cap;
-  report(1.0);
-  out.micromaps = perGeometryMicromaps(std::move(arrays));
-  if (o.layout == SOMM_ARRAY_PER_SCENE) out.micromaps = mergeToSceneArray(out.micromaps);
   return out;
 }
 

@@ -1,8 +1,6 @@
 // SPDX-License-Identifier: MIT
 // The one place where the C API's memory views (somm.h: strided UVs, 16/32-bit or no indices, textures by pointer,
-// pitch and texel format) meet the C++ baker. Today it converts the views into Geometry / Material and runs the
-// scene-level policy (BLEND, the scene-wide byte budget) over bakeGeometry exactly as `somm bake` does; when the
-// library's scene-level bake over views lands, only bake_views.cpp changes.
+// pitch and texel format) meet the C++ baker: they are checked and handed to bakeScene as its views (no copies).
 #pragma once
 
 #include <array>
@@ -28,7 +26,7 @@ struct SceneBake {
   uint32_t levelCap = 12;
 };
 
-// Thrown by the progress adapter when the caller's callback returns non-zero; caught in capi.cpp.
+// (Kept for capi.cpp's exception guard; bakeScene reports cancellation as ErrorCode::Cancelled.)
 struct Cancelled {};
 
 // Validates the views and options (messages in the C API's terms: "geometries[2].uv_stride ...") and bakes.

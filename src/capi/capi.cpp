@@ -79,6 +79,20 @@ uint32_t getU32(const unsigned char* p) {
 }
 uint16_t getU16(const unsigned char* p) { return uint16_t(p[0] | p[1] << 8); }
 
+somm_result tooSmall(somm_error* e, const char* what, uint64_t need, uint64_t have) {
+  return fail(e, SOMM_ERROR_BUFFER_TOO_SMALL,
+              std::string(what) + " capacity " + std::to_string(have) + " is less than the " + std::to_string(need) +
+                  " needed");
+}
+
+// A geometry's own index type: 16-bit when every non-special index fits below the special values (as `somm export`).
+somm_index_type indexTypeOf(const somm::SceneMicromaps& m, uint32_t g) {
+  const int32_t* idx = m.indices(g);
+  for (uint32_t t = 0; t < m.geometries[g].triangleCount; ++t)
+    if (!somm::isSpecialIndex(idx[t]) && uint32_t(idx[t]) > 0xfffbu) return SOMM_INDEX_UINT32;
+  return SOMM_INDEX_UINT16;
+}
+
 void copyUsage(const std::vector<somm::UsageCount>& h, somm_usage_count* dst) {
   for (size_t i = 0; i < h.size(); ++i) dst[i] = somm_usage_count{h[i].count, h[i].subdivisionLevel, h[i].format};
 }
@@ -152,7 +166,7 @@ somm_bake_options somm_bake_options_default(void) {
   o.unknown_as = SOMM_UNKNOWN_AS_MAJORITY;
   o.max_bytes = 0;
   o.blend = SOMM_BLEND_UNKNOWN;
-  o.layout = SOMM_ARRAY_PER_GEOMETRY;
+  o.layout = SOMM_ARRAY_PER_SCENE;
   o.threads = 0;
   o.progress = nullptr;
   o.progress_user = nullptr;
@@ -209,10 +223,9 @@ somm_result somm_bake_result_array_info(const somm_bake_result* r, uint32_t arra
     const somm::OmmArray& a = r->bake.micromaps.arrays[array];
     info->data_size = a.data.size();
     info->triangle_count = uint32_t(a.descriptors.size());
-    info->index_count = uint32_t(a.indices.size());
-    info->index_type = a.indexType() == somm::IndexType::UInt16 ? SOMM_INDEX_UINT16 : SOMM_INDEX_UINT32;
     info->usage_count_count = uint32_t(a.histogram.size());
-    info->triangle_usage_count_count = uint32_t(a.triangleHistogram.size());
+    info->geometry_count = 0;
+    for (const somm::GeometryMicromaps& g : r->bake.micromaps.geometries) info->geometry_count += g.array == array;
     return ok(error);
   });
 }
@@ -225,20 +238,11 @@ somm_result somm_bake_result_copy_array(const somm_bake_result* r, uint32_t arra
     if (!b) return fail(error, SOMM_ERROR_INVALID_ARGUMENT, "somm_bake_result_copy_array: buffers is NULL");
     const somm::OmmArray& a = r->bake.micromaps.arrays[array];
     const uint64_t trianglesBytes = uint64_t(info.triangle_count) * 8;
-    const uint64_t indexBytes = uint64_t(info.index_count) * uint64_t(info.index_type);
-    auto small = [&](const char* what, uint64_t need, uint64_t have) {
-      return fail(error, SOMM_ERROR_BUFFER_TOO_SMALL,
-                  std::string(what) + " capacity " + std::to_string(have) + " is less than the " +
-                      std::to_string(need) + " needed");
-    };
-    if (b->data && b->data_capacity < info.data_size) return small("data", info.data_size, b->data_capacity);
+    if (b->data && b->data_capacity < info.data_size) return tooSmall(error, "data", info.data_size, b->data_capacity);
     if (b->triangles && b->triangles_capacity < trianglesBytes)
-      return small("triangles", trianglesBytes, b->triangles_capacity);
-    if (b->indices && b->indices_capacity < indexBytes) return small("indices", indexBytes, b->indices_capacity);
+      return tooSmall(error, "triangles", trianglesBytes, b->triangles_capacity);
     if (b->usage_counts && b->usage_counts_capacity < info.usage_count_count)
-      return small("usage_counts", info.usage_count_count, b->usage_counts_capacity);
-    if (b->triangle_usage_counts && b->triangle_usage_counts_capacity < info.triangle_usage_count_count)
-      return small("triangle_usage_counts", info.triangle_usage_count_count, b->triangle_usage_counts_capacity);
+      return tooSmall(error, "usage_counts", info.usage_count_count, b->usage_counts_capacity);
     if (b->data && !a.data.empty()) std::memcpy(b->data, a.data.data(), a.data.size());
     if (b->triangles) {
       auto* p = static_cast<unsigned char*>(b->triangles);
@@ -248,22 +252,7 @@ somm_result somm_bake_result_copy_array(const somm_bake_result* r, uint32_t arra
         p += 8;
       }
     }
-    if (b->indices) {
-      auto* p = static_cast<unsigned char*>(b->indices);
-      for (int32_t i : a.indices) {
-        const uint32_t v = uint32_t(i);
-        if (info.index_type == SOMM_INDEX_UINT16) {
-          p[0] = (unsigned char)v;
-          p[1] = (unsigned char)(v >> 8);
-          p += 2;
-        } else {
-          putU32(p, v);
-          p += 4;
-        }
-      }
-    }
     if (b->usage_counts) copyUsage(a.histogram, b->usage_counts);
-    if (b->triangle_usage_counts) copyUsage(a.triangleHistogram, b->triangle_usage_counts);
     return ok(error);
   });
 }
@@ -279,12 +268,11 @@ somm_result somm_bake_result_geometry_info(const somm_bake_result* r, uint32_t g
                       std::to_string(r->bake.micromaps.geometries.size()) + " geometries)");
     const somm::GeometryMicromaps& gm = r->bake.micromaps.geometries[geometry];
     const somm::capi::GeometryBakeInfo& gi = r->bake.geometries[geometry];
-    const somm::OmmArray& a = r->bake.micromaps.arrays[gm.array];
     std::memset(info, 0, sizeof *info);
     info->array = gm.array;
-    info->first_triangle = gm.firstTriangle;
     info->triangle_count = gm.triangleCount;
-    info->index_offset = uint64_t(gm.firstTriangle) * uint64_t(a.indexType());
+    info->index_type = indexTypeOf(r->bake.micromaps, geometry);
+    info->index_size = uint64_t(gm.triangleCount) * uint64_t(info->index_type);
     info->usage_count_count = uint32_t(r->geometryUsage[geometry].size());
     for (int s = 0; s < 4; ++s) info->special_count[s] = gi.specialCount[size_t(s)];
     info->micro_triangles = gi.microTriangles;
@@ -296,18 +284,24 @@ somm_result somm_bake_result_geometry_info(const somm_bake_result* r, uint32_t g
   });
 }
 
-somm_result somm_bake_result_copy_geometry_usage(const somm_bake_result* r, uint32_t geometry,
-                                                 somm_usage_count* counts, uint32_t capacity, somm_error* error) {
+somm_result somm_bake_result_copy_geometry(const somm_bake_result* r, uint32_t geometry,
+                                           const somm_geometry_buffers* b, somm_error* error) {
   return guarded(error, [&]() -> somm_result {
-    if (!r) return fail(error, SOMM_ERROR_INVALID_ARGUMENT, "somm_bake_result_copy_geometry_usage: result is NULL");
-    if (geometry >= r->geometryUsage.size())
-      return fail(error, SOMM_ERROR_INVALID_ARGUMENT, "geometry " + std::to_string(geometry) + " is out of range");
-    const auto& h = r->geometryUsage[geometry];
-    if (capacity < h.size() || (!counts && !h.empty()))
-      return fail(error, SOMM_ERROR_BUFFER_TOO_SMALL,
-                  "counts capacity " + std::to_string(capacity) + " is less than the " + std::to_string(h.size()) +
-                      " entries needed");
-    if (counts) copyUsage(h, counts);
+    somm_geometry_info info;
+    if (somm_result s = somm_bake_result_geometry_info(r, geometry, &info, error); s != SOMM_OK) return s;
+    if (!b) return fail(error, SOMM_ERROR_INVALID_ARGUMENT, "somm_bake_result_copy_geometry: buffers is NULL");
+    if (b->indices && b->indices_capacity < info.index_size)
+      return tooSmall(error, "indices", info.index_size, b->indices_capacity);
+    if (b->usage_counts && b->usage_counts_capacity < info.usage_count_count)
+      return tooSmall(error, "usage_counts", info.usage_count_count, b->usage_counts_capacity);
+    if (b->indices) {
+      const int32_t* idx = r->bake.micromaps.indices(geometry);
+      const size_t w = size_t(info.index_type);
+      auto* p = static_cast<unsigned char*>(b->indices);
+      for (uint32_t t = 0; t < info.triangle_count; ++t)
+        for (size_t k = 0; k < w; ++k) p[t * w + k] = (unsigned char)(uint32_t(idx[t]) >> (8 * k));
+    }
+    if (b->usage_counts) copyUsage(r->geometryUsage[geometry], b->usage_counts);
     return ok(error);
   });
 }

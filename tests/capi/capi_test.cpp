@@ -22,35 +22,48 @@ using somm::testing::readFile;
 using somm::testing::runSomm;
 using somm::testing::TempDir;
 
-// The buffers of one array as the C API hands them out.
+// The buffers of one array and of the geometries in it, as the C API hands them out.
 struct Buffers {
   somm_array_info info{};
-  std::vector<uint8_t> data, triangles, indices;
+  std::vector<uint8_t> data, triangles, indices;  // indices: of the first geometry in the array
   std::vector<somm_usage_count> usage, triangleUsage;
+  somm_index_type indexType = SOMM_INDEX_NONE;
 };
 
-Buffers copyArray(const somm_bake_result* r, uint32_t a) {
+void copyGeometry(const somm_bake_result* r, uint32_t g, Buffers& b) {
+  somm_error e;
+  somm_geometry_info gi;
+  EXPECT_EQ(somm_bake_result_geometry_info(r, g, &gi, &e), SOMM_OK) << e.message;
+  b.indexType = gi.index_type;
+  b.indices.resize(size_t(gi.index_size));
+  b.triangleUsage.resize(gi.usage_count_count);
+  somm_geometry_buffers dst;
+  std::memset(&dst, 0, sizeof dst);
+  dst.indices = b.indices.data();
+  dst.indices_capacity = b.indices.size();
+  dst.usage_counts = b.triangleUsage.data();
+  dst.usage_counts_capacity = uint32_t(b.triangleUsage.size());
+  EXPECT_EQ(somm_bake_result_copy_geometry(r, g, &dst, &e), SOMM_OK) << e.message;
+}
+
+// Array a, with the index buffer of geometry `g` (default: a, for per-geometry arrays).
+Buffers copyArray(const somm_bake_result* r, uint32_t a, int g = -1) {
   Buffers b;
   somm_error e;
   EXPECT_EQ(somm_bake_result_array_info(r, a, &b.info, &e), SOMM_OK) << e.message;
   b.data.resize(size_t(b.info.data_size));
   b.triangles.resize(size_t(b.info.triangle_count) * 8);
-  b.indices.resize(size_t(b.info.index_count) * size_t(b.info.index_type));
   b.usage.resize(b.info.usage_count_count);
-  b.triangleUsage.resize(b.info.triangle_usage_count_count);
   somm_array_buffers dst;
   std::memset(&dst, 0, sizeof dst);
   dst.data = b.data.data();
   dst.data_capacity = b.data.size();
   dst.triangles = b.triangles.data();
   dst.triangles_capacity = b.triangles.size();
-  dst.indices = b.indices.data();
-  dst.indices_capacity = b.indices.size();
   dst.usage_counts = b.usage.data();
   dst.usage_counts_capacity = uint32_t(b.usage.size());
-  dst.triangle_usage_counts = b.triangleUsage.data();
-  dst.triangle_usage_counts_capacity = uint32_t(b.triangleUsage.size());
   EXPECT_EQ(somm_bake_result_copy_array(r, a, &dst, &e), SOMM_OK) << e.message;
+  copyGeometry(r, g < 0 ? a : uint32_t(g), b);
   return b;
 }
 
@@ -149,6 +162,7 @@ TEST(CApi, VersionAndDefaults) {
   EXPECT_EQ(o.format, SOMM_FORMAT_4_STATE);
   EXPECT_EQ(o.max_bytes, 0u);
   EXPECT_EQ(o.progress, nullptr);
+  EXPECT_EQ(o.layout, SOMM_ARRAY_PER_SCENE);  // as `somm bake`
   const somm_material m = somm_material_default();
   EXPECT_EQ(m.alpha_mode, SOMM_ALPHA_MASK);  // never a silent "opaque, nothing baked"
   EXPECT_EQ(m.cutoff, 0.5f);
@@ -183,7 +197,8 @@ TEST(CApi, EqualsTheCxxBaker) {
     EXPECT_EQ(gi.micro_triangles, ref->stats.microTriangles);
     EXPECT_EQ(gi.unknown_micro_triangles, ref->stats.unknownMicroTriangles);
     for (int s = 0; s < 4; ++s) EXPECT_EQ(gi.special_count[s], ref->stats.specialCount[size_t(s)]);
-    EXPECT_EQ(gi.index_offset, 0u);
+    EXPECT_EQ(gi.array, 0u);
+    EXPECT_EQ(gi.index_type, SOMM_INDEX_UINT16);
   }
 }
 
@@ -289,6 +304,7 @@ TEST(CApi, ScenePolicyAndLayout) {
   const uint32_t n = in.scene.geometries[0].triangleCount();
 
   somm_bake_options o = somm_bake_options_default();
+  o.layout = SOMM_ARRAY_PER_GEOMETRY;
   Baked b;
   bake(b, gs, ms, o);
   ASSERT_EQ(b.code, SOMM_OK) << b.error.message;
@@ -305,6 +321,7 @@ TEST(CApi, ScenePolicyAndLayout) {
   bake(asMask, gs, ms, o);
   ASSERT_EQ(asMask.code, SOMM_OK);
   EXPECT_EQ(copyArray(asMask.r, 1).data, mask.data);
+  EXPECT_EQ(copyArray(asMask.r, 1).indices, mask.indices);
 
   // One scene-wide array: identical maps stored once; geometry 1 (as mask) shares all of geometry 0's maps.
   o.layout = SOMM_ARRAY_PER_SCENE;
@@ -312,18 +329,18 @@ TEST(CApi, ScenePolicyAndLayout) {
   bake(scene, gs, ms, o);
   ASSERT_EQ(scene.code, SOMM_OK);
   ASSERT_EQ(somm_bake_result_array_count(scene.r), 1u);
-  const Buffers s = copyArray(scene.r, 0);
+  const Buffers s = copyArray(scene.r, 0, 1);
   EXPECT_EQ(s.data, mask.data);
-  EXPECT_EQ(s.info.index_count, 4 * n);
+  EXPECT_EQ(s.info.geometry_count, 4u);
+  EXPECT_EQ(s.indices, mask.indices);  // geometry 1 (BLEND as mask) uses the same maps as geometry 0 did alone
   ASSERT_EQ(somm_bake_result_geometry_info(scene.r, 2, &gi[2], nullptr), SOMM_OK);
-  EXPECT_EQ(gi[2].first_triangle, 2 * n);
-  EXPECT_EQ(gi[2].index_offset, uint64_t(2 * n) * uint64_t(s.info.index_type));
-  std::vector<somm_usage_count> u(gi[2].usage_count_count);
-  EXPECT_EQ(somm_bake_result_copy_geometry_usage(scene.r, 2, u.data(), uint32_t(u.size()), nullptr), SOMM_OK);
-  EXPECT_TRUE(u.empty());  // all special
+  EXPECT_EQ(gi[2].array, 0u);
+  EXPECT_EQ(gi[2].triangle_count, n);
+  EXPECT_EQ(gi[2].usage_count_count, 0u);  // all special
 
   // Budget: the data of all geometries together fits, with a scene-wide cap below 12.
   o = somm_bake_options_default();
+  o.layout = SOMM_ARRAY_PER_GEOMETRY;
   o.level = 7;
   o.max_bytes = mask.data.size() / 3;
   Baked capped;
@@ -427,8 +444,8 @@ TEST(CApi, EncodedArrays) {
   flat.triangles = buf.triangles.data();
   flat.triangle_count = buf.info.triangle_count;
   flat.indices = buf.indices.data();
-  flat.index_type = buf.info.index_type;
-  flat.index_count = buf.info.index_count;
+  flat.index_type = buf.indexType;
+  flat.index_count = uint32_t(buf.indices.size() / size_t(buf.indexType));
   for (somm_encoding enc : {SOMM_ENCODING_FLAT, SOMM_ENCODING_DFS, SOMM_ENCODING_DFS_FAST, SOMM_ENCODING_RANK,
                             SOMM_ENCODING_HYBRID}) {
     somm_encoded_array* a = nullptr;
@@ -508,14 +525,17 @@ TEST(CApi, OakTreeEqualsSommBakeAndExport) {
   const auto exported = runSomm("export '" + dir.file("oak.somm") + "' --dir '" + dir.file("out") + "'");
   ASSERT_EQ(exported.exitCode, 0) << exported.err;
   ASSERT_EQ(somm_bake_result_geometry_count(b.r), scene->geometries.size());
-  size_t withMaps = 0;
+  ASSERT_EQ(somm_bake_result_array_count(b.r), 1u);  // one scene-wide array, as `somm bake`
+  const Buffers buf = copyArray(b.r, 0);
+  EXPECT_EQ(std::string(buf.data.begin(), buf.data.end()), readFile(dir.file("out/array-0/data.bin")));
+  EXPECT_EQ(std::string(buf.triangles.begin(), buf.triangles.end()), readFile(dir.file("out/array-0/triangles.bin")));
+  size_t withMaps = buf.info.triangle_count;
   for (uint32_t g = 0; g < somm_bake_result_geometry_count(b.r); ++g) {
-    const Buffers buf = copyArray(b.r, g);
-    const std::string sub = dir.file("out/geometry-" + std::to_string(g) + "/");
-    EXPECT_EQ(std::string(buf.data.begin(), buf.data.end()), readFile(sub + "data.bin")) << g;
-    EXPECT_EQ(std::string(buf.triangles.begin(), buf.triangles.end()), readFile(sub + "triangles.bin")) << g;
-    EXPECT_EQ(std::string(buf.indices.begin(), buf.indices.end()), readFile(sub + "index.bin")) << g;
-    withMaps += buf.info.triangle_count > 0;
+    Buffers gb;
+    copyGeometry(b.r, g, gb);
+    EXPECT_EQ(std::string(gb.indices.begin(), gb.indices.end()),
+              readFile(dir.file("out/geometry-" + std::to_string(g) + "/index.bin")))
+        << g;
   }
   EXPECT_GT(withMaps, 0u);
 }

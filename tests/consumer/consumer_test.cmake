@@ -19,14 +19,14 @@ function(run)
 endfunction()
 
 function(expect_same_buffers dir reference what)
-  foreach(f data.bin triangles.bin index.bin)
-    execute_process(COMMAND ${CMAKE_COMMAND} -E compare_files ${dir}/geometry-0/${f} ${reference}/geometry-0/${f}
+  foreach(f array-0/data.bin array-0/triangles.bin geometry-0/index.bin)
+    execute_process(COMMAND ${CMAKE_COMMAND} -E compare_files ${dir}/${f} ${reference}/${f}
                     RESULT_VARIABLE rc)
     if(NOT rc EQUAL 0)
       message(FATAL_ERROR "${what}: ${f} differs from `somm bake` + `somm export`")
     endif()
   endforeach()
-  message(STATUS "${what}: data.bin, triangles.bin, index.bin byte-identical to somm bake + export")
+  message(STATUS "${what}: array-0/data.bin, triangles.bin, geometry-0/index.bin byte-identical to somm bake + export")
 endfunction()
 
 set(launcher)

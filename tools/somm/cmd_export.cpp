@@ -6,6 +6,7 @@
 
 #include "command.h"
 #include "file_summary.h"
+#include "somm/io.h"
 #include "somm/somm_file.h"
 
 namespace {
@@ -31,15 +32,16 @@ int run(const Options& o) {
   }
   const somm::SommFile& f = *file;
   std::error_code ec;
-  std::filesystem::create_directories(o.dir, ec);
-  if (ec || !std::filesystem::is_directory(o.dir)) {
-    printError("export",
-               o.dir + ": cannot create the output directory" + (ec ? ": " + ec.message() : std::string()));
+  // Whole or not at all: everything is written into a temporary directory next to --dir, renamed into place
+  // at the end (a failure leaves nothing; an existing non-empty directory is refused and kept as it is).
+  somm::StagedDirectory staged;
+  if (somm::Status s = staged.begin(o.dir); !s) {
+    printError("export", s.error().message);
     return kExitFailure;
   }
   for (size_t gi = 0; gi < f.geometries.size(); ++gi) {
     const somm::SommGeometry& g = f.geometries[gi];
-    const std::filesystem::path sub = std::filesystem::path(o.dir) / ("geometry-" + std::to_string(gi));
+    const std::filesystem::path sub = std::filesystem::path(staged.staging()) / ("geometry-" + std::to_string(gi));
     std::filesystem::create_directories(sub, ec);
     if (ec) {
       printError("export", sub.string() + ": cannot create directory: " + ec.message());
@@ -75,10 +77,14 @@ int run(const Options& o) {
     for (const auto& out : outputs) {
       const somm::Status s = somm::writeFileAtomically((sub / out.name).string(), out.bytes);
       if (!s) {
-        printError("export", s.error().message);
+        printError("export", o.dir + ": " + s.error().message);
         return kExitFailure;
       }
     }
+  }
+  if (somm::Status s = staged.commit(); !s) {
+    printError("export", s.error().message);
+    return kExitFailure;
   }
   return kExitOk;
 }

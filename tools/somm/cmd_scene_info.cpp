@@ -5,6 +5,7 @@
 #include <string>
 
 #include "command.h"
+#include "limits_cli.h"
 #include "somm/scene.h"
 
 namespace {
@@ -13,6 +14,7 @@ struct Options {
   std::string path;
   bool blendAsMask = false;
   bool json = false;
+  std::vector<std::string> limits;
 };
 
 const char* modeName(somm::AlphaMode m) {
@@ -37,10 +39,11 @@ int run(const Options& o) {
   using namespace somm::cli;
   somm::LoadOptions lo;
   lo.blendAsMask = o.blendAsMask;
+  if (!applyLimits("scene-info", o.limits, lo.limits)) return kExitUsage;
   auto scene = somm::loadScene(o.path, lo);
   if (!scene) {
     printError("scene-info", scene.error().message);
-    return scene.error().code == somm::ErrorCode::ParseError ? kExitUsage : kExitFailure;
+    return kExitFailure;  // a bad scene file is a failed operation (exit 1), never a usage error
   }
   const somm::Scene& s = *scene;
   uint64_t triangles = 0, tested = 0;
@@ -144,6 +147,7 @@ void setup(CLI::App& root) {
                                       "command numbers them, with materials, alpha "
                                       "modes, cutoffs, alpha textures and samplers.");
   cmd->add_option("scene", opts->path, "scene file (.gltf, .glb or .obj)")->required();
+  somm::cli::addLimitOption(cmd, opts->limits);
   cmd->add_flag("--blend-as-mask", opts->blendAsMask, "treat glTF BLEND materials as MASK with their cutoff");
   cmd->add_flag("--json", opts->json, "machine-readable output");
   cmd->callback([opts] { somm::cli::setExitCode(run(*opts)); });

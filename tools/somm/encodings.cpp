@@ -61,6 +61,8 @@ Result<EncodedArray> loadEncoding(const SommGeometry& g, uint32_t geometryIndex,
       return makeError(ErrorCode::CorruptFile,
                        where + ": encoding '" + encodingName(e) +
                            "' does not match the geometry (encoding id or triangle count)");
+    if (Status v = verifyAgainstFlat(*a, g.flat, where + " encoding '" + encodingName(e) + "'"); !v)
+      return v.error();
     return a;
   }
   return makeError(

@@ -24,6 +24,7 @@ struct TraceCliOptions {
   float cutoff = -1;  // < 0: each material's own
   bool blendAsMask = false;
   bool json = false;
+  std::vector<std::string> limits;  // --limit NAME=VALUE
 };
 
 void addTraceOptions(CLI::App* cmd, TraceCliOptions& o);

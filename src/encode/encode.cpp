@@ -595,6 +595,8 @@ Result<EncodedArray> EncodedArray::parse(std::span<const uint8_t> bytes, std::st
   const uint8_t* data = q + mapCount * encode::kDescriptorBytes;
   bool anyTree = false;
   out.maps_.resize(mapCount);
+  // A map shared by several descriptors is validated once (work bounded by the distinct maps).
+  std::map<std::tuple<uint32_t, uint8_t, uint8_t, uint8_t>, bool> validated;
   for (uint64_t m = 0; m < mapCount; ++m, q += encode::kDescriptorBytes) {
     EncodedMapDesc d{getU32(q), q[4], q[5], MapKind(q[6]), q[7]};
     const std::string which = "micromap " + std::to_string(m) + ": ";
@@ -609,8 +611,10 @@ Result<EncodedArray> EncodedArray::parse(std::span<const uint8_t> bytes, std::st
     if (d.kind != want)
       return bad(which + "kind " + mapKindName(d.kind) + " does not match the array's encoding");
     if (d.offset > dataBytes) return bad(which + "offset past the data buffer");
-    auto size = encode::validateMap(data + d.offset, dataBytes - d.offset, d.kind, d.level, Format(d.format));
-    if (!size) return bad(which + size.error().message);
+    if (validated.emplace(std::make_tuple(d.offset, d.level, d.format, uint8_t(d.kind)), true).second) {
+      auto size = encode::validateMap(data + d.offset, dataBytes - d.offset, d.kind, d.level, Format(d.format));
+      if (!size) return bad(which + size.error().message);
+    }
     anyTree |= d.kind != MapKind::Flat;
     out.maps_[m] = d;
   }

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Whole-file reading and atomic writing of .somm files; the mechanisms live in somm/io.h (src/util/io.cpp).
 #include <string>
 
@@ -25,6 +26,12 @@ Result<SommFile> readSommFile(const std::string& path) {
   auto bytes = readWholeFile(path);
   if (!bytes) return bytes.error();
   return parseSomm(*bytes, path);
+}
+
+Result<SceneMicromaps> readSceneMicromaps(const std::string& path) {
+  auto file = readSommFile(path);
+  if (!file) return file.error();
+  return std::move(file->micromaps);
 }
 
 }  // namespace somm

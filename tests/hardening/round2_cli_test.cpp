@@ -28,10 +28,7 @@ using testing::TempDir;
 // One geometry of `n` triangles whose descriptors all share one level-9 4-state map (legal: the spec lets
 // descriptors overlap). 128 KiB of map + 8 bytes per descriptor; expanded per descriptor it would be n × 128 KiB.
 SommFile sharedDescriptorFile(uint32_t n) {
-  SommFile f;
-  f.sourcePath = "scene.gltf";
-  f.toolVersion = "somm test";
-  SommGeometry g;
+  testing::TestGeometry g;
   g.info.name = "shared";
   g.info.triangleCount = n;
   g.info.format = Format::FourState;
@@ -53,7 +50,9 @@ SommFile sharedDescriptorFile(uint32_t n) {
   auto dfs = EncodedArray::build(g.flat, Encoding::Dfs);
   EXPECT_TRUE(dfs.ok());
   if (dfs.ok()) g.extra.push_back(EncodedSection{sectionId("dfs "), dfs->serialize()});
-  f.geometries.push_back(std::move(g));
+  SommFile f = testing::singleGeometryFile(std::move(g));
+  f.sourcePath = "scene.gltf";
+  f.toolVersion = "somm test";
   return f;
 }
 
@@ -78,23 +77,23 @@ TEST(BadSommRound2, SharedDescriptorsStayBounded) {
 // A stored encoding whose checksums are valid but whose states contradict flat: refused, never answered.
 TEST(BadSommRound2, EncodingContradictingFlatIsRefused) {
   TempDir d;
-  SommFile f = testing::sampleFile(30, 3);
-  SommGeometry& g = f.geometries[0];
-  g.extra.clear();
-  OmmArray other = g.flat;
+  SommFile f = testing::sampleFile(30, 3, testing::Layout::PerGeometry);
+  OmmArray& flat0 = f.micromaps.arrays[0];
+  f.encodings[0].clear();
+  OmmArray other = flat0;
   size_t mapIndex = 0;
   while (mapIndex < other.descriptors.size() && other.descriptors[mapIndex].subdivisionLevel < 2) ++mapIndex;
   ASSERT_LT(mapIndex, other.descriptors.size());
   other.data[other.descriptors[mapIndex].dataOffset] ^= 0x0C;  // micro-triangle 1 of that map changes state
   auto dfs = EncodedArray::build(other, Encoding::Dfs);
   ASSERT_TRUE(dfs.ok());
-  g.extra.push_back(EncodedSection{sectionId("dfs "), dfs->serialize()});
+  f.encodings[0].push_back(EncodedSection{sectionId("dfs "), dfs->serialize()});
   const std::string p = d.file("contra.somm");
   ASSERT_TRUE(writeSommFile(p, f).ok());
   // Some triangle uses that map: query it through dfs.
   uint32_t tri = 0;
-  while (tri < g.flat.indices.size() && g.flat.indices[tri] != int32_t(mapIndex)) ++tri;
-  ASSERT_LT(tri, g.flat.indices.size());
+  while (tri < flat0.indices.size() && flat0.indices[tri] != int32_t(mapIndex)) ++tri;
+  ASSERT_LT(tri, flat0.indices.size());
   const auto r = runGuarded("query " + quote(p) + " --geometry 0 --triangle " + std::to_string(tri) + " --encoding dfs",
                             "0.1 0.1\n");
   expectRejected(r, 1, {p, "differs from flat"}, "query through a contradicting dfs");
@@ -128,11 +127,11 @@ TEST(BadSommRound2, ExportIsWholeOrNothing) {
   ASSERT_TRUE(writeSommFile(p, testing::sampleFile(40, 1)).ok());
   const std::string out = d.file("out");
   std::filesystem::create_directories(out + "/geometry-0");
-  testing::writeFile(out + "/geometry-0/data.bin", "precious");
+  testing::writeFile(out + "/geometry-0/index.bin", "precious");
   const auto before = testing::listDir(d.path().string());
   const auto r = runGuarded("export " + quote(p) + " --dir " + quote(out));
   expectRejected(r, 1, {out, "not empty"}, "export into a non-empty directory");
-  EXPECT_EQ(testing::readFile(out + "/geometry-0/data.bin"), "precious");
+  EXPECT_EQ(testing::readFile(out + "/geometry-0/index.bin"), "precious");
   EXPECT_EQ(testing::listDir(d.path().string()), before);
   const std::string fresh = d.file("fresh");
   const auto ok = runGuarded("export " + quote(p) + " --dir " + quote(fresh));
@@ -144,7 +143,8 @@ TEST(BadSommRound2, ExportIsWholeOrNothing) {
   const std::string empty = d.file("empty");
   std::filesystem::create_directories(empty);
   EXPECT_EQ(runGuarded("export " + quote(p) + " --dir " + quote(empty)).exitCode, 0);
-  EXPECT_TRUE(std::filesystem::exists(empty + "/geometry-0/data.bin"));
+  EXPECT_TRUE(std::filesystem::exists(empty + "/array-0/data.bin"));
+  EXPECT_TRUE(std::filesystem::exists(empty + "/geometry-0/index.bin"));
   // A corrupt file leaves no directory.
   testing::writeFile(d.file("bad.somm"), "SOMM but not really");
   const auto bad = runGuarded("export " + quote(d.file("bad.somm")) + " --dir " + quote(d.file("never")));

@@ -236,6 +236,22 @@ TEST(BadSommRound2, OptionRanges) {
   EXPECT_FALSE(std::filesystem::exists(d.file("w.somm")));
 }
 
+// Names stored in a .somm (its source path, geometry and material names) are printed escaped by `info`.
+TEST(BadSommRound2, InfoEscapesStoredNames) {
+  TempDir d;
+  SommFile f = testing::sampleFile(10, 2);
+  f.sourcePath = "evil\nsomm info: forged \x1b[2J";
+  f.geometries[0].name = "g\r\x07";
+  const std::string p = d.file("names.somm");
+  ASSERT_TRUE(writeSommFile(p, f).ok());
+  const auto r = runGuarded("info " + quote(p));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_NE(r.out.find("evil\\x0asomm info: forged \\x1b[2J"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("'g\\x0d\\x07'"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find('\x1b'), std::string::npos);
+  EXPECT_EQ(r.out.find('\r'), std::string::npos);
+}
+
 }  // namespace
 }  // namespace somm
 #endif

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "command.h"
+#include "somm/io.h"
 #include "limits_cli.h"
 #include "somm/scene.h"
 
@@ -112,19 +113,19 @@ int run(const Options& o) {
   for (size_t i = 0; i < s.geometries.size(); ++i) {
     const somm::Geometry& g = s.geometries[i];
     const somm::Material& m = s.materials[g.material];
-    out.put("  " + to_string(i) + "  " + g.name + ": " + to_string(g.triangleCount()) + " triangles, " +
+    out.put("  " + to_string(i) + "  " + somm::escapeName(g.name) + ": " + to_string(g.triangleCount()) + " triangles, " +
             to_string(g.positions.size() / 3) + " vertices, material " + to_string(g.material) + " '" +
-            m.name + "' (" + modeName(m.alphaMode) + ")\n");
+            somm::escapeName(m.name) + "' (" + modeName(m.alphaMode) + ")\n");
   }
   out.put("materials:\n");
   for (size_t i = 0; i < s.materials.size(); ++i) {
     const somm::Material& m = s.materials[i];
-    std::string line = "  " + to_string(i) + "  '" + m.name + "': " + modeName(m.alphaMode);
+    std::string line = "  " + to_string(i) + "  '" + somm::escapeName(m.name) + "': " + modeName(m.alphaMode);
     if (m.alphaTested()) {
       line += ", cutoff " + fmt("%g", m.alphaCutoff);
       if (m.alpha)
         line += ", alpha " + to_string(m.alpha->width) + "x" + to_string(m.alpha->height) + " from " +
-                m.alphaSource + ", " + filterName(m.sampler.filter) + ", wrap " + wrapName(m.sampler.wrapS) +
+                somm::escapeName(m.alphaSource) + ", " + filterName(m.sampler.filter) + ", wrap " + wrapName(m.sampler.wrapS) +
                 "/" + wrapName(m.sampler.wrapT);
       else
         line += ", constant alpha " + fmt("%g", m.baseColorFactor[3]);

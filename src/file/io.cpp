@@ -8,7 +8,7 @@
 
 namespace somm {
 
-Status writeFileAtomically(const std::string& path, std::span<const uint8_t> bytes) {
+Status writeFileAtomically(const std::string& path, Span<const uint8_t> bytes) {
   return writeFileAtomically(path, bytes.data(), bytes.size());
 }
 

@@ -439,4 +439,10 @@ class EncodedArray {
   uint64_t dataBytes_ = 0;
 };
 
+// Checks that a (parsed, validated) encoded array answers exactly like the flat spec buffers it was stored
+// with: same indices, same level and format per map, the same state for every micro-triangle. Run when a .somm
+// is read, so that a file cannot answer differently per encoding. Each distinct map is decoded once (work
+// bounded, LimitExceeded beyond); CorruptFile names the first difference, prefixed by `what`.
+Status verifyAgainstFlat(const EncodedArray& encoded, const OmmArray& flat, std::string_view what);
+
 }  // namespace somm

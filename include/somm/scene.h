@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "somm/limits.h"
 #include "somm/result.h"
 #include "somm/texture.h"
 
@@ -90,6 +91,7 @@ struct Scene {
 
 struct LoadOptions {
   bool blendAsMask = false;  // treat glTF BLEND materials as MASK with their cutoff
+  Limits limits;             // file sizes, image pixels, nodes, instances (docs/hardening.md)
 };
 
 // Loads .gltf, .glb or .obj (by extension). Errors name the file and the problem. See docs/scene.md.

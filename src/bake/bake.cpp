@@ -115,6 +115,19 @@ constexpr double kBarycentricSlack = 0x1p-20;
 // Rows of cells beyond which a region is declared mixed without enumerating (still conservative).
 constexpr int64_t kMaxRows = int64_t(1) << 22;
 
+// Work bound per triangle (docs/hardening.md): a budget of work units (a node visited, a row of cells counted,
+// a cell bounded) of kWorkBase + kWorkPerEdgeLevel · (W + H) · (level + 1) + 4^level / 4 — above what real
+// content needs (the oak tree at most a sixth of it at levels 2-12, torcs-forza about half at level 10), far below what slivers and huge
+// UVs (each micro-triangle spanning thousands of texels) would cost: seconds per triangle. Once the budget is
+// spent, every node not yet decided becomes unknown as a whole (conservative: 4-state unknown, 2-state by the
+// majority rule). A triangle whose UVs span more than kAbsurdRepeats texture widths or heights is not
+// classified at all (whole-unknown, like non-finite UVs).
+constexpr uint64_t kWorkBase = uint64_t(1) << 14, kWorkPerEdgeLevel = 64;
+constexpr double kAbsurdRepeats = 4096;
+inline uint64_t workBudget(uint32_t level, uint32_t w, uint32_t h) noexcept {
+  return kWorkBase + kWorkPerEdgeLevel * (uint64_t(w) + h) * (level + 1) + microTriangleCount(level) / 4;
+}
+
 // Classifies one triangle's micro-triangles. Coordinates are in "cell space": texel space for nearest, texel
 // space shifted by −½ for linear (cell i of the shifted grid blends texels i and i + 1).
 struct TriangleClassifier {
@@ -127,6 +140,8 @@ struct TriangleClassifier {
   UnknownAs unknownAs = UnknownAs::Majority;
   uint8_t* bytes = nullptr;
   uint64_t unknown = 0;
+  mutable uint64_t budget = ~uint64_t(0);  // work units left (see kWorkBase)
+  void spend(uint64_t units) const noexcept { budget = units < budget ? budget - units : 0; }
 
   unsigned rect(int64_t i0, int64_t i1, int64_t j0, int64_t j1) const noexcept {
     const AlphaMask::Count c = mask.count(i0, i1 + ext, j0, j1 + ext);
@@ -239,6 +254,8 @@ struct TriangleClassifier {
     // Exact: per row of cells, the x-extent of the grown triangle within the row.
     unsigned acc = 0;
     for (int64_t j = j0; j <= j1; ++j) {
+      if (budget == 0) return kMixed;
+      spend(1);
       double xl, xr;
       if (!slabExtent(X, Y, double(j) - m, double(j + 1) + m, xl, xr)) continue;
       acc |= rect(cellFloor(xl - m), cellFloor(xr + m), j, j);
@@ -275,6 +292,7 @@ struct TriangleClassifier {
           continue;
         }
       }
+      spend(uint64_t(b - a + 1));
       for (int64_t i = a; i <= b; ++i) {
         const uint32_t xa = wrapFast(i, tw, smp.wrapS), xb = wrapFast(i + 1, tw, smp.wrapS);
         const float c00 = mask.texel(xa, ya), c10 = mask.texel(xb, ya), c01 = mask.texel(xa, yb),
@@ -412,6 +430,11 @@ struct TriangleClassifier {
     const uint32_t start = prefix * span;
     if (r == kPass) return fill(start, span, State::Opaque);
     if (r == kFail) return fill(start, span, State::Transparent);
+    spend(1);
+    if (budget == 0 && depth < level) {  // work bound reached: the whole node unknown
+      unknown += span;
+      return fill(start, span, unknownState(X, Y));
+    }
     if (depth == level) {
       ++unknown;
       return fill(start, 1, unknownState(X, Y));
@@ -462,6 +485,7 @@ void prepare(const AlphaMask& mask, std::array<float, 2> uv0, std::array<float, 
   p.usable = true;
   for (int k = 0; k < 3; ++k)
     p.usable = p.usable && std::fabs(p.X[k]) < kMaxTexelCoord && std::fabs(p.Y[k]) < kMaxTexelCoord;
+  p.usable = p.usable && max3(p.X) - min3(p.X) <= kAbsurdRepeats * W && max3(p.Y) - min3(p.Y) <= kAbsurdRepeats * H;
   p.margin = p.usable ? bakeMarginTexels(p.X, p.Y) : 0.0;
 }
 
@@ -474,6 +498,7 @@ TriangleClassifier makeClassifier(const AlphaMask& mask, double margin, uint32_t
   c.level = level;
   c.format = format;
   c.unknownAs = unknownAs;
+  c.budget = workBudget(level, mask.width(), mask.height());
   return c;
 }
 

@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <array>
+#include <map>
+#include <tuple>
 
 namespace somm {
 
@@ -453,12 +455,21 @@ Result<EncodedArray> EncodedArray::build(const OmmArray& array, Encoding encodin
   out.indices_ = array.indices;
   std::vector<uint8_t>& data = out.data_;
   bool anyTree = encoding != Encoding::Flat && encoding != Encoding::Hybrid;
+  // Descriptors sharing one map (same offset, level and format) share its encoded map: memory and work stay
+  // bounded by the distinct maps, not descriptors × map size (docs/hardening.md). Arrays made by
+  // OmmArrayBuilder have no such sharing, so their encoding is unchanged.
+  std::map<std::tuple<uint32_t, uint16_t, uint16_t>, EncodedMapDesc> seen;
   for (const TriangleDescriptor& d : array.descriptors) {
     if (!validDescriptor(d))
       return makeError(ErrorCode::InvalidArgument, "OMM array descriptor has a bad level or format");
     const Format f = Format(d.format);
     if (uint64_t(d.dataOffset) + micromapDataBytes(d.subdivisionLevel, f) > array.data.size())
       return makeError(ErrorCode::InvalidArgument, "OMM array descriptor points past the data buffer");
+    const auto key = std::make_tuple(d.dataOffset, d.subdivisionLevel, d.format);
+    if (auto it = seen.find(key); it != seen.end()) {
+      out.maps_.push_back(it->second);
+      continue;
+    }
     Micromap m(d.subdivisionLevel, f);
     std::memcpy(m.bytes().data(), array.data.data() + d.dataOffset, m.bytes().size());
     MapKind kind = MapKind::Flat;
@@ -494,6 +505,7 @@ Result<EncodedArray> EncodedArray::build(const OmmArray& array, Encoding encodin
       return makeError(ErrorCode::LimitExceeded, "encoded micromap data exceeds 4 GiB");
     out.maps_.push_back(
         EncodedMapDesc{uint32_t(data.size()), uint8_t(d.subdivisionLevel), uint8_t(d.format), kind, 0});
+    seen.emplace(key, out.maps_.back());
     data.insert(data.end(), blob.begin(), blob.end());
   }
   out.dataBytes_ = data.size();
@@ -584,6 +596,8 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
   const uint8_t* data = q + mapCount * encode::kDescriptorBytes;
   bool anyTree = false;
   out.maps_.resize(mapCount);
+  // A map shared by several descriptors is validated once (work bounded by the distinct maps).
+  std::map<std::tuple<uint32_t, uint8_t, uint8_t, uint8_t>, bool> validated;
   for (uint64_t m = 0; m < mapCount; ++m, q += encode::kDescriptorBytes) {
     EncodedMapDesc d{getU32(q), q[4], q[5], MapKind(q[6]), q[7]};
     const std::string which = "micromap " + std::to_string(m) + ": ";
@@ -598,8 +612,10 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
     if (d.kind != want)
       return bad(which + "kind " + mapKindName(d.kind) + " does not match the array's encoding");
     if (d.offset > dataBytes) return bad(which + "offset past the data buffer");
-    auto size = encode::validateMap(data + d.offset, dataBytes - d.offset, d.kind, d.level, Format(d.format));
-    if (!size) return bad(which + size.error().message);
+    if (validated.emplace(std::make_tuple(d.offset, d.level, d.format, uint8_t(d.kind)), true).second) {
+      auto size = encode::validateMap(data + d.offset, dataBytes - d.offset, d.kind, d.level, Format(d.format));
+      if (!size) return bad(which + size.error().message);
+    }
     anyTree |= d.kind != MapKind::Flat;
     out.maps_[m] = d;
   }
@@ -612,6 +628,71 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
     if (out.data_[i] != 0) return bad("encoded array tail padding is not zero");
   out.dataBytes_ = dataBytes;
   return out;
+}
+
+Status verifyAgainstFlat(const EncodedArray& e, const OmmArray& flat, std::string_view what) {
+  const std::string w(what);
+  if (e.triangleCount() != flat.indices.size() || e.mapCount() != flat.descriptors.size())
+    return makeError(ErrorCode::CorruptFile, w + ": " + std::to_string(e.triangleCount()) + " triangles and " +
+                                                 std::to_string(e.mapCount()) + " maps, flat has " +
+                                                 std::to_string(flat.indices.size()) + " and " +
+                                                 std::to_string(flat.descriptors.size()));
+  for (size_t t = 0; t < flat.indices.size(); ++t)
+    if (e.indices()[t] != flat.indices[t])
+      return makeError(ErrorCode::CorruptFile, w + ": triangle " + std::to_string(t) + " has index " +
+                                                   std::to_string(e.indices()[t]) + ", flat has " +
+                                                   std::to_string(flat.indices[t]));
+  // Each distinct encoded map is decoded once and compared with the flat map of every descriptor using it
+  // (a distinct flat map once per encoded map). Work is bounded: Σ 4^level over the distinct (encoded, flat)
+  // pairs must stay within 8 states per byte of the two data buffers plus 2^20 (a well-formed array needs at
+  // most 1 state per pair and byte); otherwise the file is refused rather than checked for minutes.
+  const uint64_t budget = 8 * (uint64_t(e.dataBytes()) + flat.data.size()) * 4 + (uint64_t(1) << 20);
+  uint64_t work = 0;
+  std::map<std::tuple<uint32_t, uint8_t, uint8_t, uint8_t>, size_t> decoded;  // encoded desc → slot
+  std::vector<Micromap> maps;
+  std::map<std::pair<size_t, uint32_t>, bool> compared;  // (slot, flat offset)
+  const auto descs = e.maps();
+  for (size_t i = 0; i < flat.descriptors.size(); ++i) {
+    const TriangleDescriptor& d = flat.descriptors[i];
+    const EncodedMapDesc& m = descs[i];
+    if (m.level != d.subdivisionLevel || m.format != d.format)
+      return makeError(ErrorCode::CorruptFile, w + ": map " + std::to_string(i) + " has level " +
+                                                   std::to_string(m.level) + " format " + std::to_string(m.format) +
+                                                   ", flat has level " + std::to_string(d.subdivisionLevel) +
+                                                   " format " + std::to_string(d.format));
+    const auto key = std::make_tuple(m.offset, m.level, m.format, uint8_t(m.kind));
+    auto it = decoded.find(key);
+    if (it == decoded.end()) {
+      work += microTriangleCount(m.level);
+      if (work > budget)
+        return makeError(ErrorCode::LimitExceeded,
+                         w + ": checking this encoding against flat would decode more than " + std::to_string(budget) +
+                             " micro-triangle states (its maps are shared beyond what the data can hold)");
+      maps.push_back(encode::decodeMap(e.data().data() + m.offset, m.kind, m.level, Format(m.format)));
+      it = decoded.emplace(key, maps.size() - 1).first;
+    }
+    if (!compared.emplace(std::make_pair(it->second, d.dataOffset), true).second) continue;
+    const Micromap& a = maps[it->second];
+    const Format f = Format(d.format);
+    const uint8_t* fb = flat.data.data() + d.dataOffset;
+    bool same = true;
+    if (d.subdivisionLevel >= 2) {
+      same = std::memcmp(a.bytes().data(), fb, a.bytes().size()) == 0;
+    } else {
+      for (uint32_t k = 0; k < microTriangleCount(d.subdivisionLevel) && same; ++k)
+        same = readPackedState(a.bytes().data(), f, k) == readPackedState(fb, f, k);
+    }
+    if (!same) {
+      uint32_t k = 0;
+      while (k + 1 < microTriangleCount(d.subdivisionLevel) &&
+             readPackedState(a.bytes().data(), f, k) == readPackedState(fb, f, k))
+        ++k;
+      return makeError(ErrorCode::CorruptFile, w + ": map " + std::to_string(i) + " micro-triangle " +
+                                                   std::to_string(k) + " differs from flat (the stored encoding "
+                                                   "contradicts the spec buffers)");
+    }
+  }
+  return Ok{};
 }
 
 }  // namespace somm

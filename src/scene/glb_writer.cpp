@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <system_error>
 
+#include "somm/io.h"
 #include "somm/scene.h"
 
 // Exported by the Debian libstb (stb_image_write's zlib compressor) but only declared inside its
@@ -256,24 +257,7 @@ Status writeGlb(const Scene& scene, const std::string& path) {
   le32(uint32_t(bin.size())), le32(0x004E4942);
   glb.insert(glb.end(), bin.begin(), bin.end());
 
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    if (!f) return fail(ErrorCode::IoError, "cannot create file");
-    f.write(reinterpret_cast<const char*>(glb.data()), std::streamsize(glb.size()));
-    f.close();
-    if (!f) {
-      std::remove(tmp.c_str());
-      return fail(ErrorCode::IoError, "cannot write file");
-    }
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::remove(tmp.c_str());
-    return fail(ErrorCode::IoError, "cannot rename temporary file: " + ec.message());
-  }
-  return Ok{};
+  return writeFileAtomically(path, glb.data(), glb.size());
 }
 
 }  // namespace somm

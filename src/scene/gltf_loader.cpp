@@ -2,6 +2,7 @@
 // somm — glTF 2.0 (.gltf / .glb) loading via tinygltf. tinygltf parses the JSON and the buffers; everything
 // else (accessor bounds, images, node hierarchy) is validated and converted here, so malformed files give
 // errors, not crashes.
+#include <nlohmann/json.hpp>
 #include <tiny_gltf.h>
 
 #include <algorithm>
@@ -13,8 +14,11 @@
 #include <memory>
 #include <utility>
 
+#include <sys/stat.h>
+
 #include "image_io.h"
 #include "loaders.h"
+#include "somm/io.h"
 
 namespace somm::detail {
 
@@ -75,6 +79,83 @@ bool keepEncoded(tinygltf::Image* image, const int, std::string*, std::string*, 
 // No shell-style expansion of URIs (tinygltf's default uses wordexp).
 std::string noExpand(const std::string& p, void*) {
   return p;
+}
+
+// tinygltf's FileExists opens the file (a FIFO would block): stat only; readExternal refuses what is not a
+// regular file.
+bool existsNoOpen(const std::string& p, void*) {
+  struct stat st;
+  return ::stat(p.c_str(), &st) == 0;
+}
+
+bool isImagePath(const std::string& p) {
+  std::string ext = std::filesystem::path(p).extension().string();
+  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+  return ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".tga" || ext == ".bmp" || ext == ".gif" ||
+         ext == ".psd" || ext == ".hdr" || ext == ".pic" || ext == ".pnm" || ext == ".ppm" || ext == ".pgm";
+}
+
+// External buffers and images: regular files only, at most the cap of their kind.
+bool readExternal(std::vector<unsigned char>* out, std::string* err, const std::string& path, void* user) {
+  const Limits& limits = *static_cast<const Limits*>(user);
+  const bool image = isImagePath(path);
+  auto bytes = image ? readRegularFile(path, limits.imageFileBytes, "image", "file-bytes.image")
+                     : readRegularFile(path, limits.bufferFileBytes, "glTF buffer", "file-bytes.buffer");
+  if (!bytes) {
+    if (err) *err += bytes.error().message + "\n";
+    return false;
+  }
+  *out = std::move(bytes.value());
+  return true;
+}
+
+// Nesting depth of the JSON arrays and objects in `text` (strings skipped), stopping once beyond `limit`.
+uint32_t jsonDepth(const char* p, size_t n, uint32_t limit) {
+  uint32_t depth = 0, deepest = 0;
+  bool inString = false;
+  for (size_t i = 0; i < n; ++i) {
+    const char c = p[i];
+    if (inString) {
+      if (c == '\\') ++i;
+      else if (c == '"') inString = false;
+      continue;
+    }
+    if (c == '"') inString = true;
+    else if (c == '[' || c == '{') {
+      deepest = std::max(deepest, ++depth);
+      if (deepest > limit) return deepest;
+    } else if ((c == ']' || c == '}') && depth > 0) --depth;
+  }
+  return deepest;
+}
+
+// Properties tinygltf reads as unsigned integers but silently ignores (as 0 / absent) when negative or not an
+// integer: refuse those, naming the property. `j` is the parsed document (nesting already bounded).
+std::string badUnsigned(const nlohmann::json& j) {
+  static const struct {
+    const char* array;
+    const char* keys[5];
+  } kChecks[] = {{"bufferViews", {"buffer", "byteOffset", "byteLength", "byteStride", nullptr}},
+                 {"accessors", {"bufferView", "byteOffset", "count", "componentType", nullptr}},
+                 {"buffers", {"byteLength", nullptr}},
+                 {"images", {"bufferView", nullptr}},
+                 {"nodes", {"mesh", "camera", nullptr}}};
+  if (!j.is_object()) return {};
+  for (const auto& c : kChecks) {
+    auto it = j.find(c.array);
+    if (it == j.end() || !it->is_array()) continue;
+    for (size_t i = 0; i < it->size(); ++i) {
+      const nlohmann::json& e = (*it)[i];
+      if (!e.is_object()) continue;
+      for (const char* const* k = c.keys; *k; ++k) {
+        auto v = e.find(*k);
+        if (v != e.end() && !v->is_number_unsigned())
+          return std::string(c.array) + "[" + std::to_string(i) + "]." + *k + " is " +
+                 (v->is_number() ? "negative or not an integer" : "not a number");
+      }
+    }
+  }
+  return {};
 }
 
 void splitLines(const std::string& text, std::vector<std::string>& out) {
@@ -185,6 +266,7 @@ class GltfLoader {
   std::map<int, std::shared_ptr<const RawImage>> images_;
   size_t bufferBytes_ = 0;
   uint64_t materialised_ = 0;
+  uint64_t decoded_ = 0;  // decoded image bytes so far (limits.decodedImageBytes)
   Status charge(const std::string& what, size_t vertices, size_t indices);
 };
 
@@ -270,18 +352,18 @@ Result<std::shared_ptr<const RawImage>> GltfLoader::image(int index, const std::
     const tinygltf::Buffer& buf = model_.buffers[size_t(bv.buffer)];
     if (bv.byteOffset > buf.data.size() || bv.byteLength > buf.data.size() - bv.byteOffset)
       return fail(ErrorCode::CorruptFile, ctx + ": " + where + " extends past the end of its buffer");
-    raw = decodeImage(buf.data.data() + bv.byteOffset, bv.byteLength);
+    raw = decodeImage(buf.data.data() + bv.byteOffset, bv.byteLength, opts_.limits, &decoded_);
   } else if (tinygltf::IsDataURI(im.uri) || (im.uri.empty() && !im.image.empty())) {
     where = "image " + std::to_string(index) + " (data URI)";
-    raw = decodeImage(im.image.data(), im.image.size());
+    raw = decodeImage(im.image.data(), im.image.size(), opts_.limits, &decoded_);
   } else {
     const std::filesystem::path base = std::filesystem::path(path_).parent_path();
     where = "'" + (base / im.uri).string() + "'";
     if (im.image.empty()) {
       // tinygltf only warns when an external image is missing: try ourselves, for the reason of the failure.
-      raw = readImageFile((base / im.uri).string());
+      raw = readImageFile((base / im.uri).string(), opts_.limits, &decoded_);
     } else {
-      raw = decodeImage(im.image.data(), im.image.size());
+      raw = decodeImage(im.image.data(), im.image.size(), opts_.limits, &decoded_);
     }
   }
   if (!raw.ok()) return fail(raw.error().code, ctx + ": texture " + where + ": " + raw.error().message);
@@ -557,7 +639,10 @@ Status GltfLoader::loadInstances() {
         return fail(ErrorCode::CorruptFile, "node " + std::to_string(node) + " does not exist");
       if (onPath[size_t(node)])
         return fail(ErrorCode::CorruptFile, "node hierarchy has a cycle at node " + std::to_string(node));
-      if (++visits > 10000000) return fail(ErrorCode::LimitExceeded, "node hierarchy too large");
+      if (++visits > opts_.limits.nodes)
+        return fail(ErrorCode::LimitExceeded, "the node hierarchy expands to more than " +
+                                                  std::to_string(opts_.limits.nodes) + " node visits, " +
+                                                  limitHint("nodes", opts_.limits.nodes));
       const tinygltf::Node& n = model_.nodes[size_t(node)];
       const Mat4 world = mul(parent, localTransform(n));
       if (n.mesh >= 0) {
@@ -565,6 +650,9 @@ Status GltfLoader::loadInstances() {
           return fail(ErrorCode::CorruptFile, "node " + std::to_string(node) + ": mesh " +
                                                   std::to_string(n.mesh) + " does not exist");
         const size_t prims = model_.meshes[size_t(n.mesh)].primitives.size();
+        if (prims > opts_.limits.instances || scene_.instances.size() > opts_.limits.instances - prims)
+          return fail(ErrorCode::LimitExceeded, "the scene has more than " + std::to_string(opts_.limits.instances) +
+                                                    " instances, " + limitHint("instances", opts_.limits.instances));
         std::array<float, 16> transform;
         for (int k = 0; k < 16; ++k) transform[size_t(k)] = narrow(world[size_t(k)]);
         if (prims > 0 && !isUsableTransform(transform))
@@ -623,16 +711,66 @@ Status GltfLoader::loadInstances() {
 }
 
 Result<Scene> GltfLoader::run(bool binary) {
+  // The file is read here (a regular file, at most the scene cap), its JSON nesting bounded before any parser
+  // recurses into it (tinygltf's JSON parser recurses per level: ~20,000 levels overflow the stack).
+  auto file = readRegularFile(path_, opts_.limits.sceneFileBytes, binary ? "GLB file" : "glTF file",
+                              "file-bytes.scene");
+  if (!file) return file.error();
+  const std::vector<uint8_t>& bytes = *file;
+  const char* json = reinterpret_cast<const char*>(bytes.data());
+  size_t jsonSize = bytes.size();
+  if (binary) {
+    auto le32 = [&](size_t o) {
+      return uint32_t(bytes[o]) | uint32_t(bytes[o + 1]) << 8 | uint32_t(bytes[o + 2]) << 16 | uint32_t(bytes[o + 3]) << 24;
+    };
+    if (bytes.size() < 20 || std::memcmp(bytes.data(), "glTF", 4) != 0)
+      return fail(ErrorCode::CorruptFile, "not a GLB file (no 'glTF' magic)");
+    if (le32(4) != 2)
+      return fail(ErrorCode::UnsupportedFormat,
+                  "GLB container version " + std::to_string(le32(4)) + " (only version 2 is supported)");
+    if (le32(16) != 0x4E4F534Au) return fail(ErrorCode::CorruptFile, "the first GLB chunk is not JSON");
+    jsonSize = std::min<size_t>(le32(12), bytes.size() - 20);
+    json += 20;
+  }
+  if (bytes.size() > 0xFFFFFFFFu)
+    return fail(ErrorCode::LimitExceeded, "larger than 4 GiB, more than glTF can address");
+  if (const uint32_t d = jsonDepth(json, jsonSize, opts_.limits.jsonDepth); d > opts_.limits.jsonDepth)
+    return fail(ErrorCode::LimitExceeded, "JSON nested deeper than " + limitHint("json-depth", opts_.limits.jsonDepth));
+  {
+    const nlohmann::json doc = nlohmann::json::parse(json, json + jsonSize, nullptr, false);
+    if (!doc.is_discarded()) {
+      if (std::string why = badUnsigned(doc); !why.empty()) return fail(ErrorCode::CorruptFile, why);
+      auto asset = doc.find("asset");
+      if (asset != doc.end() && asset->is_object()) {
+        auto v = asset->find("version");
+        if (v != asset->end() && v->is_string()) {
+          const std::string ver = v->get<std::string>();
+          if (ver.rfind("2.", 0) != 0)
+            return fail(ErrorCode::UnsupportedFormat,
+                        "asset.version '" + escapeName(ver.substr(0, 40)) + "' (only glTF 2.x is supported)");
+        }
+        auto mv = asset->find("minVersion");
+        if (mv != asset->end() && mv->is_string() && mv->get<std::string>() != "2.0")
+          return fail(ErrorCode::UnsupportedFormat, "asset.minVersion '" +
+                                                        escapeName(mv->get<std::string>().substr(0, 40)) +
+                                                        "' (only 2.0 is supported)");
+      }
+    }
+  }
   tinygltf::TinyGLTF loader;
   loader.SetImageLoader(&keepEncoded, nullptr);
-  tinygltf::FsCallbacks fs{&tinygltf::FileExists, &noExpand, &tinygltf::ReadWholeFile,
-                           &tinygltf::WriteWholeFile, nullptr};
+  tinygltf::FsCallbacks fs{&existsNoOpen, &noExpand, &readExternal, &tinygltf::WriteWholeFile,
+                           const_cast<Limits*>(&opts_.limits)};
   loader.SetFsCallbacks(fs);
   std::string err, warn;
   bool ok = false;
+  const std::string baseDir = std::filesystem::path(path_).parent_path().string();
   try {
-    ok = binary ? loader.LoadBinaryFromFile(&model_, &err, &warn, path_)
-                : loader.LoadASCIIFromFile(&model_, &err, &warn, path_);
+    ok = binary ? loader.LoadBinaryFromMemory(&model_, &err, &warn, bytes.data(), unsigned(bytes.size()), baseDir)
+                : loader.LoadASCIIFromString(&model_, &err, &warn, json, unsigned(jsonSize), baseDir);
+  } catch (const std::bad_alloc&) {
+    err = "out of memory while parsing";
+    ok = false;
   } catch (const std::exception& e) {
     err = std::string("parser exception: ") + e.what();
     ok = false;

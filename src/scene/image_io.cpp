@@ -9,9 +9,9 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <memory>
+
+#include "somm/io.h"
 
 namespace somm::detail {
 
@@ -83,9 +83,55 @@ bool jpegHuffmanTablesValid(const uint8_t* p, size_t n) {
   return true;
 }
 
+uint32_t be32(const uint8_t* p) {
+  return uint32_t(p[0]) << 24 | uint32_t(p[1]) << 16 | uint32_t(p[2]) << 8 | p[3];
+}
+
+// A palette PNG's indices may exceed its PLTE entries; stb_image then reads its uninitialised palette memory.
+// Returns a copy with PLTE padded to 256 entries (black, opaque unless tRNS says otherwise — what libpng gives
+// for such indices), or nothing when the input needs no change. Chunk CRCs are recomputed.
+uint32_t crc32(const uint8_t* p, size_t n, uint32_t c = 0xFFFFFFFFu) {
+  static uint32_t table[256];
+  static const bool init = [] {
+    for (uint32_t i = 0; i < 256; ++i) {
+      uint32_t v = i;
+      for (int k = 0; k < 8; ++k) v = v & 1 ? 0xEDB88320u ^ (v >> 1) : v >> 1;
+      table[i] = v;
+    }
+    return true;
+  }();
+  (void)init;
+  for (size_t i = 0; i < n; ++i) c = table[(c ^ p[i]) & 0xFF] ^ (c >> 8);
+  return c;
+}
+
+std::vector<uint8_t> padPalette(const uint8_t* p, size_t n) {
+  // Called after pngChunkProblem: every chunk fits.
+  if (n < 33 || std::memcmp(p + 12, "IHDR", 4) != 0 || p[25] != 3) return {};  // colour type 3: palette
+  size_t i = 8;
+  while (n - i >= 12) {
+    const uint32_t len = be32(p + i);
+    if (std::memcmp(p + i + 4, "PLTE", 4) == 0) {
+      if (len >= 768 || len % 3 != 0) return {};
+      std::vector<uint8_t> out(p, p + i);
+      const uint8_t hdr[8] = {0, 0, 3, 0, 'P', 'L', 'T', 'E'};
+      out.insert(out.end(), hdr, hdr + 8);
+      out.insert(out.end(), p + i + 8, p + i + 8 + len);
+      out.resize(out.size() + (768 - len), 0);
+      const uint32_t crc = crc32(out.data() + i + 4, 4 + 768) ^ 0xFFFFFFFFu;
+      for (int s = 24; s >= 0; s -= 8) out.push_back(uint8_t(crc >> s));
+      out.insert(out.end(), p + i + 12 + len, p + n);
+      return out;
+    }
+    if (std::memcmp(p + i + 4, "IEND", 4) == 0) break;
+    i += size_t(len) + 12;
+  }
+  return {};
+}
+
 }  // namespace
 
-Result<RawImage> decodeImage(const uint8_t* data, size_t size) {
+Result<RawImage> decodeImage(const uint8_t* data, size_t size, const Limits& limits, uint64_t* decodedBytes) {
   if (size == 0) return makeError(ErrorCode::CorruptFile, "empty image data");
   if (size > size_t(INT_MAX)) return makeError(ErrorCode::LimitExceeded, "image data larger than 2 GiB");
   const int n = int(size);
@@ -100,6 +146,26 @@ Result<RawImage> decodeImage(const uint8_t* data, size_t size) {
   }
   if (w < 1 || h < 1 || comp < 1 || comp > 4)
     return makeError(ErrorCode::CorruptFile, "image has invalid dimensions or channel count");
+  if (uint64_t(w) * uint64_t(h) > limits.imagePixels)
+    return makeError(ErrorCode::LimitExceeded, "image of " + std::to_string(w) + "x" + std::to_string(h) +
+                                                   " texels exceeds " + limitHint("image-pixels", limits.imagePixels));
+  // What decoding costs: the decoder's buffer, our 16-bit copy and the alpha/colour textures made from it.
+  const uint64_t cost = uint64_t(w) * uint64_t(h) * (uint64_t(comp) * 3 + 8);
+  if (decodedBytes) {
+    if (*decodedBytes + cost > limits.decodedImageBytes)
+      return makeError(ErrorCode::LimitExceeded,
+                       "decoding this " + std::to_string(w) + "x" + std::to_string(h) + " image would bring the scene's "
+                       "decoded images to " + std::to_string(*decodedBytes + cost) + " bytes, more than " +
+                       limitHint("decoded-bytes", limits.decodedImageBytes));
+    *decodedBytes += cost;
+  }
+  std::vector<uint8_t> padded = padPalette(data, size);
+  if (!padded.empty()) {
+    if (padded.size() > size_t(INT_MAX)) return makeError(ErrorCode::LimitExceeded, "image data larger than 2 GiB");
+    data = padded.data();
+    size = padded.size();
+  }
+  const int n2 = int(size);
   if (uint64_t(w) * uint64_t(h) * uint64_t(comp) > kMaxSamples)
     return makeError(ErrorCode::LimitExceeded, "image of " + std::to_string(w) + "x" + std::to_string(h) +
                                                    " texels is larger than supported");
@@ -108,10 +174,10 @@ Result<RawImage> decodeImage(const uint8_t* data, size_t size) {
                                                    " texels but its " + std::to_string(size) +
                                                    " bytes cannot hold that many (truncated or corrupt)");
   RawImage img;
-  const bool is16 = stbi_is_16_bit_from_memory(data, n) != 0;
+  const bool is16 = stbi_is_16_bit_from_memory(data, n2) != 0;
   int w2 = 0, h2 = 0, c2 = 0;
   if (is16) {
-    std::unique_ptr<stbi_us, StbiFree> p(stbi_load_16_from_memory(data, n, &w2, &h2, &c2, 0));
+    std::unique_ptr<stbi_us, StbiFree> p(stbi_load_16_from_memory(data, n2, &w2, &h2, &c2, 0));
     if (!p) {
       const char* why = stbi_failure_reason();
       return makeError(ErrorCode::CorruptFile,
@@ -120,7 +186,7 @@ Result<RawImage> decodeImage(const uint8_t* data, size_t size) {
     img.width = uint32_t(w2), img.height = uint32_t(h2), img.channels = uint32_t(c2), img.sixteenBit = true;
     img.px.assign(p.get(), p.get() + size_t(w2) * size_t(h2) * size_t(c2));
   } else {
-    std::unique_ptr<stbi_uc, StbiFree> p(stbi_load_from_memory(data, n, &w2, &h2, &c2, 0));
+    std::unique_ptr<stbi_uc, StbiFree> p(stbi_load_from_memory(data, n2, &w2, &h2, &c2, 0));
     if (!p) {
       const char* why = stbi_failure_reason();
       return makeError(ErrorCode::CorruptFile,
@@ -137,23 +203,18 @@ Result<RawImage> decodeImage(const uint8_t* data, size_t size) {
   return img;
 }
 
-Result<RawImage> readImageFile(const std::string& path) {
-  // Only regular files: a directory made the read below throw (std::terminate, found by fuzz_obj with `map_Kd /`),
-  // and a device such as /dev/zero would never end.
-  std::error_code ec;
-  const auto st = std::filesystem::status(path, ec);
-  if (!ec && std::filesystem::exists(st) && !std::filesystem::is_regular_file(st))
-    return makeError(ErrorCode::IoError, "not a regular file");
-  std::ifstream f(path, std::ios::binary);
-  if (!f) return makeError(ErrorCode::IoError, "cannot open file");
-  std::vector<uint8_t> bytes;
-  try {
-    bytes.assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
-  } catch (const std::exception&) {
-    return makeError(ErrorCode::IoError, "cannot read file");
+Result<RawImage> readImageFile(const std::string& path, const Limits& limits, uint64_t* decodedBytes) {
+  // Only regular files, at most the image cap: a directory made the read throw (std::terminate, found by fuzz_obj
+  // with `map_Kd /`), /dev/zero would never end and a FIFO would block.
+  auto bytes = readRegularFile(path, limits.imageFileBytes, "image", "file-bytes.image");
+  if (!bytes) {
+    // The reason only: the caller names the file.
+    std::string msg = bytes.error().message;
+    const std::string prefix = escapeName(path) + ": ";
+    if (msg.rfind(prefix, 0) == 0) msg = msg.substr(prefix.size());
+    return makeError(bytes.error().code, msg);
   }
-  if (f.bad()) return makeError(ErrorCode::IoError, "cannot read file");
-  return decodeImage(bytes.data(), bytes.size());
+  return decodeImage(bytes->data(), bytes->size(), limits, decodedBytes);
 }
 
 AlphaTexture toAlphaTexture(const RawImage& img, AlphaChannel channel, float factor, bool flipRows) {

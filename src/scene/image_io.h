@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "somm/limits.h"
 #include "somm/result.h"
 #include "somm/scene.h"
 #include "somm/texture.h"
@@ -26,9 +27,14 @@ struct RawImage {
 };
 
 // Decodes an encoded image held in memory. The error message is the reason only (the caller adds context).
-Result<RawImage> decodeImage(const uint8_t* data, size_t size);
-// Reads and decodes an image file. The error message is the reason only.
-Result<RawImage> readImageFile(const std::string& path);
+// The declared size is checked against limits.imagePixels and, when decodedBytes is given, the decoded bytes of
+// the scene so far (*decodedBytes, updated) against limits.decodedImageBytes, before anything is decoded.
+Result<RawImage> decodeImage(const uint8_t* data, size_t size, const Limits& limits = defaultLimits(),
+                             uint64_t* decodedBytes = nullptr);
+// Reads (a regular file, at most limits.imageFileBytes) and decodes an image file. The error message is the
+// reason only.
+Result<RawImage> readImageFile(const std::string& path, const Limits& limits = defaultLimits(),
+                               uint64_t* decodedBytes = nullptr);
 
 // Which value of an image is the alpha.
 enum class AlphaChannel : uint8_t {

@@ -14,10 +14,12 @@
 #include <filesystem>
 #include <map>
 #include <memory>
+#include <sstream>
 #include <unordered_map>
 
 #include "image_io.h"
 #include "loaders.h"
+#include "somm/io.h"
 
 namespace somm::detail {
 
@@ -34,6 +36,71 @@ void splitLines(const std::string& text, const std::string& prefix, std::vector<
     start = end + 1;
   }
 }
+
+// Face, line and point indices must fit tinyobjloader's int (it overflows silently): the first token of a line
+// that is f/l/p, then every run of digits of at most 10 digits and ≤ 2^31 − 1. Returns the offending line or 0.
+size_t badIndexLine(const std::string& text, std::string& token) {
+  size_t line = 1;
+  for (size_t i = 0; i < text.size();) {
+    size_t e = text.find('\n', i);
+    if (e == std::string::npos) e = text.size();
+    size_t k = i;
+    while (k < e && (text[k] == ' ' || text[k] == '\t')) ++k;
+    if (k + 1 < e && (text[k] == 'f' || text[k] == 'l' || text[k] == 'p') &&
+        (text[k + 1] == ' ' || text[k + 1] == '\t')) {
+      for (size_t j = k + 1; j < e;) {
+        if (text[j] < '0' || text[j] > '9') {
+          ++j;
+          continue;
+        }
+        size_t d = j;
+        uint64_t v = 0;
+        while (d < e && text[d] >= '0' && text[d] <= '9') {
+          if (v <= 0x7FFFFFFFu) v = v * 10 + uint64_t(text[d] - '0');
+          ++d;
+        }
+        if (v > 0x7FFFFFFFu) {
+          token = text.substr(j, std::min<size_t>(d - j, 40));
+          return line;
+        }
+        j = d;
+      }
+    }
+    ++line;
+    i = e + 1;
+  }
+  return 0;
+}
+
+// Reads mtllib files as regular files only, with the mtl size cap; a failure other than "missing" is kept and
+// ends the load (tinyobjloader would only warn).
+class MtlReader : public tinyobj::MaterialReader {
+ public:
+  MtlReader(std::filesystem::path dir, uint64_t cap) : dir_(std::move(dir)), cap_(cap) {}
+  bool operator()(const std::string& matId, std::vector<tinyobj::material_t>* materials,
+                  std::map<std::string, int>* matMap, std::string* warn, std::string* err) override {
+    std::filesystem::path p(matId);
+    if (p.is_relative()) p = dir_ / p;
+    std::error_code ec;
+    if (!std::filesystem::exists(std::filesystem::symlink_status(p, ec))) {
+      if (warn) *warn += "material library '" + escapeName(p.string()) + "' not found\n";
+      return false;
+    }
+    auto bytes = readRegularFile(p.string(), cap_, "material library", "file-bytes.mtl");
+    if (!bytes) {
+      if (error.empty()) error = "mtllib: " + bytes.error().message;
+      return false;
+    }
+    std::istringstream in(std::string(bytes->begin(), bytes->end()));
+    tinyobj::LoadMtl(matMap, materials, &in, warn, err);
+    return true;
+  }
+  std::string error;
+
+ private:
+  std::filesystem::path dir_;
+  uint64_t cap_;
+};
 
 class ObjLoader {
  public:
@@ -177,25 +244,33 @@ Status ObjLoader::material(const tinyobj::material_t& tm, Material& m) {
 
 Result<Scene> ObjLoader::run() {
   dir_ = std::filesystem::path(path_).parent_path();
-  tinyobj::ObjReaderConfig cfg;
-  cfg.triangulate = false;
-  cfg.vertex_color = false;
-  cfg.mtl_search_path = dir_.empty() ? std::string("./") : dir_.string() + "/";
-  tinyobj::ObjReader reader;
+  auto bytes = readRegularFile(path_, opts_.limits.sceneFileBytes, "OBJ file", "file-bytes.scene");
+  if (!bytes) return bytes.error();
+  std::string text(bytes->begin(), bytes->end());
+  bytes->clear();
+  bytes->shrink_to_fit();
+  std::string badToken;
+  if (const size_t line = badIndexLine(text, badToken))
+    return fail(ErrorCode::CorruptFile,
+                "line " + std::to_string(line) + ": index " + badToken + " is out of range (at most 2^31 - 1)");
+  tinyobj::attrib_t attrib;
+  std::vector<tinyobj::shape_t> shapes;
+  std::vector<tinyobj::material_t> mats;
+  std::string warn, err;
+  MtlReader mtl(dir_, opts_.limits.mtlFileBytes);
   bool ok = false;
   try {
-    ok = reader.ParseFromFile(path_, cfg);
+    std::istringstream in(std::move(text));
+    ok = tinyobj::LoadObj(&attrib, &shapes, &mats, &warn, &err, &in, &mtl, false, false);
   } catch (const std::exception& e) {
-    return fail(ErrorCode::ParseError, std::string("parser exception: ") + e.what());
+    return fail(ErrorCode::CorruptFile, std::string("parser exception: ") + e.what());
   }
+  if (!mtl.error.empty()) return fail(ErrorCode::IoError, mtl.error);
   if (!ok) {
-    std::string msg = oneLine(reader.Error());
-    return fail(ErrorCode::ParseError, msg.empty() ? "cannot parse OBJ" : msg);
+    std::string msg = oneLine(err);
+    return fail(ErrorCode::CorruptFile, msg.empty() ? "cannot parse OBJ" : msg);
   }
-  splitLines(reader.Warning(), "", scene_.warnings);
-  const tinyobj::attrib_t& attrib = reader.GetAttrib();
-  const auto& shapes = reader.GetShapes();
-  const auto& mats = reader.GetMaterials();
+  splitLines(warn, "", scene_.warnings);
   scene_.sourcePath = path_;
   for (const auto& tm : mats) {
     Material m;
@@ -219,7 +294,7 @@ Result<Scene> ObjLoader::run() {
     size_t offset = 0;
     for (size_t f = 0; f < mesh.num_face_vertices.size(); ++f) {
       const size_t n = mesh.num_face_vertices[f];
-      if (offset + n > mesh.indices.size()) return fail(ErrorCode::ParseError, "inconsistent face data");
+      if (offset + n > mesh.indices.size()) return fail(ErrorCode::CorruptFile, "inconsistent face data");
       int mat = f < mesh.material_ids.size() ? mesh.material_ids[f] : -1;
       if (mat >= int(mats.size())) mat = -1;
       if (n < 3) {
@@ -253,11 +328,11 @@ Result<Scene> ObjLoader::run() {
       for (size_t k = 0; k < n; ++k) {
         const tinyobj::index_t& ix = mesh.indices[offset + k];
         if (ix.vertex_index < 0 || size_t(ix.vertex_index) >= nv)
-          return fail(ErrorCode::ParseError, "face " + std::to_string(f + 1) + " of shape '" + shapeName +
+          return fail(ErrorCode::CorruptFile, "face " + std::to_string(f + 1) + " of shape '" + shapeName +
                                                  "' refers to vertex " + std::to_string(ix.vertex_index + 1) +
                                                  " but the file has " + std::to_string(nv) + " vertices");
         if (ix.texcoord_index >= 0 && size_t(ix.texcoord_index) >= nt)
-          return fail(ErrorCode::ParseError, "face " + std::to_string(f + 1) + " of shape '" + shapeName +
+          return fail(ErrorCode::CorruptFile, "face " + std::to_string(f + 1) + " of shape '" + shapeName +
                                                  "' refers to texture coordinate " +
                                                  std::to_string(ix.texcoord_index + 1) + " but the file has " +
                                                  std::to_string(nt) + " texture coordinates");

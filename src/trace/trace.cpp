@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
 // somm_trace: Embree scene, any-hit filter functions per method, the render workload.
+#include "somm/io.h"
 #include "somm/trace.h"
 
 #include <embree3/rtcore.h>
@@ -100,17 +101,16 @@ double percentPixelsDiffering(const Image& a, const Image& b) noexcept {
 Status writePng(const std::string& path, const Image& image) {
   if (image.width == 0 || image.height == 0 || image.rgba.size() != size_t(image.width) * image.height * 4)
     return makeError(ErrorCode::InvalidArgument, path + ": empty or malformed image");
-  const std::string tmp = path + ".tmp";
-  if (!stbi_write_png(tmp.c_str(), int(image.width), int(image.height), 4, image.rgba.data(),
-                      int(image.width * 4))) {
-    std::remove(tmp.c_str());
-    return makeError(ErrorCode::IoError, path + ": cannot write PNG");
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    return makeError(ErrorCode::IoError, path + ": cannot rename the temporary file into place");
-  }
-  return Ok{};
+  // Encoded in memory, then written atomically (a unique temporary file, never a fixed PATH.tmp).
+  std::vector<uint8_t> png;
+  auto sink = [](void* ctx, void* data, int size) {
+    auto* out = static_cast<std::vector<uint8_t>*>(ctx);
+    out->insert(out->end(), static_cast<uint8_t*>(data), static_cast<uint8_t*>(data) + size);
+  };
+  if (!stbi_write_png_to_func(sink, &png, int(image.width), int(image.height), 4, image.rgba.data(),
+                              int(image.width * 4)))
+    return makeError(ErrorCode::IoError, path + ": cannot encode PNG");
+  return writeFileAtomically(path, png.data(), png.size());
 }
 
 // ---- the world ----

@@ -54,7 +54,7 @@ TEST(CliSceneInfo, TextAndErrors) {
   EXPECT_NE(missing.err.find("nope.gltf"), std::string::npos);
   testing::writeFile(dir / "bad.obj", "v 0 0 0\nf 1 2 3\n");
   const RunResult bad = runSomm(dir, "scene-info " + shellQuote(dir / "bad.obj"));
-  EXPECT_EQ(bad.exitCode, 2);
+  EXPECT_EQ(bad.exitCode, 1);  // a corrupt scene file is a failed operation, not a usage error (issue 12)
   EXPECT_NE(bad.err.find("bad.obj"), std::string::npos);
   EXPECT_EQ(runSomm(dir, "scene-info").exitCode, 2);
 }

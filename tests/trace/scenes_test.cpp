@@ -90,7 +90,9 @@ TEST(TraceScenes, OakTreeFourStateIsExact) {
 
 TEST(TraceScenes, AlphaBlendModeTestFourStateIsExact) {
   const std::string dir = std::string(SOMM_DATA_DIR) + "/alpha-blend-mode-test/";
-  auto s = loadScene(dir + "AlphaBlendModeTest.gltf", LoadOptions{true});
+  LoadOptions blendAsMask;
+  blendAsMask.blendAsMask = true;
+  auto s = loadScene(dir + "AlphaBlendModeTest.gltf", blendAsMask);
   ASSERT_TRUE(s.ok()) << s.error().message;
   auto scene = std::make_shared<const Scene>(std::move(s).value());
   checkExact(scene, 6, 160);

@@ -13,6 +13,8 @@
 #include "command.h"
 #include "encodings.h"
 #include "file_summary.h"
+#include "limits_cli.h"
+#include "somm/io.h"
 #include "somm/bake.h"
 #include "somm/scene.h"
 #include "somm/somm_file.h"
@@ -33,6 +35,7 @@ struct Options {
   bool json = false;
   bool blendAsMask = false;
   std::string encodings;  // --encoding: comma list or "all" (flat is always stored)
+  std::vector<std::string> limits;  // --limit NAME=VALUE
   std::string arrays = "scene";  // --arrays: one scene-wide OMM array, or one per geometry
 };
 
@@ -128,9 +131,16 @@ int run(const Options& o) {
   // ---- scene ----
   somm::LoadOptions lo;
   lo.blendAsMask = o.blendAsMask;
+  if (!applyLimits("bake", o.limits, lo.limits)) return kExitUsage;
+  if (!o.output.empty())
+    if (somm::Status s = somm::checkOutputPath(o.output, {o.scene}); !s) return usage(s.error().message);
   auto scene = somm::loadScene(o.scene, lo);
   if (!scene) {
     printError("bake", scene.error().message);
+    return kExitFailure;
+  }
+  if (somm::Status s = checkBakeWork(*scene, bo, lo.limits); !s) {
+    printError("bake", s.error().message);
     return kExitFailure;
   }
   for (const std::string& w : scene->warnings) printError("bake", o.scene + ": note: " + w);
@@ -348,10 +358,11 @@ void setup(CLI::App& root) {
       ->check(CLI::IsMember({"opaque", "transparent", "majority"}));
   cmd->add_option("--max-bytes", o->maxBytes,
                   "lower a scene-wide level cap until the data of all arrays fits in B bytes")
-      ->check(CLI::NonNegativeNumber);  // CLI11 would wrap "-5" into 2^64 - 5
+      ->check(CLI::NonNegativeNumber & CLI::Range(uint64_t(0), uint64_t(1) << 63));  // CLI11 would wrap "-5" into 2^64 - 5
   cmd->add_flag("--estimate", o->estimate,
                 "print the data size from the levels alone, bake nothing, write nothing");
-  cmd->add_option("--threads,-j", o->threads, "worker threads (default: all)");
+  cmd->add_option("--threads,-j", o->threads, "worker threads (default: all)")->check(CLI::Range(0u, 1024u));
+  somm::cli::addLimitOption(cmd, o->limits);
   cmd->add_option("--encoding,-e", o->encodings,
                   "also store these encodings of each array (docs/encodings.md): comma list of flat, dfs, "
                   "dfs-fast, rank, hybrid, or all");

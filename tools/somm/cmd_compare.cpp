@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "command.h"
+#include "limits_cli.h"
 #include "encodings.h"
 #include "file_summary.h"
 #include "somm/bake.h"
@@ -31,6 +32,7 @@ struct Options {
   bool json = false;
   std::string plot;
   uint32_t threads = 0;
+  std::vector<std::string> limits;
 };
 
 struct Row {
@@ -250,7 +252,9 @@ int run(const Options& o) {
     }
     scene = somm::makeLeafCardScene(uint32_t(cards), 1);
   } else {
-    auto s = somm::loadScene(o.scene);
+    somm::LoadOptions lo;
+    if (!applyLimits("compare", o.limits, lo.limits)) return kExitUsage;
+    auto s = somm::loadScene(o.scene, lo);
     if (!s) {
       printError("compare", s.error().message);
       return kExitFailure;
@@ -354,7 +358,8 @@ void setup(CLI::App& root) {
                 "print JSON: rows of {level, format, triangles, micromaps, <encoding>: {bytes, "
                 "ratio_to_flat}}");
   cmd->add_option("--plot", opts->plot, "write a PNG plot of the ratio to flat against the level");
-  cmd->add_option("--threads", opts->threads, "bake threads (0 = all)");
+  cmd->add_option("--threads", opts->threads, "bake threads (0 = all)")->check(CLI::Range(0u, 1024u));
+  somm::cli::addLimitOption(cmd, opts->limits);
   cmd->callback([opts] { somm::cli::setExitCode(run(*opts)); });
 }
 

@@ -7,6 +7,7 @@
 
 #include "command.h"
 #include "file_summary.h"
+#include "somm/io.h"
 #include "somm/somm_file.h"
 
 namespace {
@@ -75,13 +76,14 @@ int run(const Options& o) {
   }
   const somm::SommFile& f = *file;
   const somm::SceneMicromaps& m = f.micromaps;
-  std::error_code ec;
-  std::filesystem::create_directories(o.dir, ec);
-  if (ec || !std::filesystem::is_directory(o.dir)) {
-    printError("export",
-               o.dir + ": cannot create the output directory" + (ec ? ": " + ec.message() : std::string()));
+  // Whole or not at all: everything is written into a temporary directory next to --dir and renamed into place
+  // at the end (a failure leaves nothing; an existing non-empty directory is refused and kept as it is).
+  somm::StagedDirectory staged;
+  if (somm::Status s = staged.begin(o.dir); !s) {
+    printError("export", s.error().message);
     return kExitFailure;
   }
+  const std::filesystem::path root(staged.staging());
   // Per array: the micromap build inputs (one VkMicromapEXT / DXR OMM array).
   for (uint32_t ai = 0; ai < m.arrays.size(); ++ai) {
     const somm::OmmArray& a = m.arrays[ai];
@@ -95,7 +97,7 @@ int run(const Options& o) {
     u["data_bytes"] = a.data.size();
     u["triangle_array_stride"] = 8;
     u["usage_counts"] = usageJson(a.histogram);  // VkMicromapBuildInfoEXT::pUsageCounts
-    if (!writeDir(std::filesystem::path(o.dir) / ("array-" + std::to_string(ai)),
+    if (!writeDir(root / ("array-" + std::to_string(ai)),
                   {{"data.bin", a.data}, {"triangles.bin", a.descriptorBytes()}, {"usage.json", textBytes(u)}}))
       return kExitFailure;
   }
@@ -119,10 +121,14 @@ int run(const Options& o) {
     u["index_stride"] = wide ? 4 : 2;
     u["base_triangle"] = 0;
     u["triangle_usage_counts"] = usageJson(m.triangleHistogram(gi));
-    if (!writeDir(std::filesystem::path(o.dir) / ("geometry-" + std::to_string(gi)),
+    if (!writeDir(root / ("geometry-" + std::to_string(gi)),
                   {{"index.bin", indexBytes(m.indices(gi), m.geometries[gi].triangleCount, type)},
                    {"usage.json", textBytes(u)}}))
       return kExitFailure;
+  }
+  if (somm::Status s = staged.commit(); !s) {
+    printError("export", s.error().message);
+    return kExitFailure;
   }
   return kExitOk;
 }
@@ -137,7 +143,7 @@ void setup(CLI::App& root) {
                                       "32-bit OMM index buffer into its array, special indices -1..-4) and "
                                       "usage.json (array, format, index type, its triangle usage histogram).");
   cmd->add_option("file", opts->path, ".somm file")->required();
-  cmd->add_option("--dir,-d", opts->dir, "output directory (created if missing)")->required();
+  cmd->add_option("--dir,-d", opts->dir, "output directory: new or empty (written whole or not at all)")->required();
   cmd->callback([opts] { somm::cli::setExitCode(run(*opts)); });
 }
 

@@ -70,7 +70,7 @@ void setup(CLI::App& root) {
       ->required()
       ->check(CLI::IsMember({"leaf-cards", "quad"}));
   cmd->add_option("-o,--output", opts->out, "output .glb")->required();
-  cmd->add_option("--cards", opts->cards, "leaf-cards: number of cards")->check(CLI::Range(1u, 50000000u));
+  cmd->add_option("--cards", opts->cards, "leaf-cards: number of cards")->check(CLI::Range(1u, 1000000u));
   cmd->add_option("--seed", opts->seed, "random seed");
   cmd->add_option("--texture", opts->texture, "quad: disc | noise | checker | specks | stripes | leaf")
       ->check(CLI::IsMember({"disc", "noise", "checker", "specks", "stripes", "leaf"}));
@@ -79,9 +79,9 @@ void setup(CLI::App& root) {
       ->check(CLI::IsMember({"nearest", "linear"}));
   cmd->add_option("--wrap", opts->wrap, "quad: repeat | clamp | mirror")
       ->check(CLI::IsMember({"repeat", "clamp", "mirror"}));
-  cmd->add_option("--cutoff", opts->cutoff, "quad: alpha cutoff")->check(CLI::Range(0.0f, 1.0f));
+  cmd->add_option("--cutoff", opts->cutoff, "quad: alpha cutoff")->check(CLI::Range(0.0f, 1.0f) & somm::cli::NotNan);
   cmd->add_option("--uv-scale", opts->uvScale, "quad: UVs span [0, K]² (K > 1 exercises the wrap mode)")
-      ->check(CLI::Range(-1e6f, 1e6f));
+      ->check(CLI::Range(-1e6f, 1e6f) & somm::cli::NotNan);
   cmd->callback([opts] { somm::cli::setExitCode(run(*opts)); });
 }
 

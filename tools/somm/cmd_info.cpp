@@ -6,6 +6,7 @@
 #include <string>
 
 #include "command.h"
+#include "somm/io.h"
 #include "encodings.h"
 #include "file_summary.h"
 #include "somm/somm_file.h"
@@ -182,8 +183,8 @@ int run(const Options& o) {
     return kExitOk;
   }
 
-  out.put(o.path + ": .somm version " + std::to_string(version) + ", written by '" + f.toolVersion + "' from '" +
-          f.sourcePath + "'\n");
+  out.put(o.path + ": .somm version " + std::to_string(version) + ", written by '" + somm::escapeName(f.toolVersion) + "' from '" +
+          somm::escapeName(f.sourcePath) + "'\n");
   if (!f.bakeOptions.empty()) {
     out.put("bake options:");
     for (const auto& [k, v] : f.bakeOptions) out.put(" " + k + "=" + v);
@@ -200,7 +201,7 @@ int run(const Options& o) {
   }
   for (uint32_t i = 0; i < f.geometries.size(); ++i) {
     const somm::GeometryInfo& g = f.geometries[i];
-    out.put("geometry " + std::to_string(i) + " '" + g.name + "' (material '" + g.material +
+    out.put("geometry " + std::to_string(i) + " '" + somm::escapeName(g.name) + "' (material '" + somm::escapeName(g.material) +
             "'): " + std::to_string(g.triangleCount) + " triangles at " +
             std::to_string(m.geometries[i].firstTriangle) + " in array " + std::to_string(m.geometries[i].array) +
             ", " + std::to_string(statesOf(g.format)) + "-state, levels " + std::to_string(g.minLevel) + ".." +

@@ -9,6 +9,7 @@
 #include "command.h"
 #include "file_summary.h"
 #include "legend.h"
+#include "somm/io.h"
 #include "trace_cli.h"
 
 namespace {
@@ -29,6 +30,10 @@ int run(const Options& o) {
   const bool needMicromaps = spec->kind == somm::MethodKind::Omm ||
                              spec->kind == somm::MethodKind::StateOverlay ||
                              spec->kind == somm::MethodKind::Bitmask;
+  if (somm::Status s = somm::checkOutputPath(o.output, {o.trace.scene, o.trace.omm}); !s) {
+    printError("render", s.error().message);
+    return kExitUsage;
+  }
   int code = kExitOk;
   auto p = prepareTrace("render", o.trace, needMicromaps, code);
   if (!p) return code;

@@ -6,6 +6,8 @@
 #include <string>
 
 #include "command.h"
+#include "somm/io.h"
+#include "limits_cli.h"
 #include "somm/trace.h"
 #include "somm/scene.h"
 
@@ -15,6 +17,7 @@ struct Options {
   std::string path;
   bool blendAsMask = false;
   bool json = false;
+  std::vector<std::string> limits;
 };
 
 const char* modeName(somm::AlphaMode m) {
@@ -39,10 +42,11 @@ int run(const Options& o) {
   using namespace somm::cli;
   somm::LoadOptions lo;
   lo.blendAsMask = o.blendAsMask;
+  if (!applyLimits("scene-info", o.limits, lo.limits)) return kExitUsage;
   auto scene = somm::loadScene(o.path, lo);
   if (!scene) {
     printError("scene-info", scene.error().message);
-    return scene.error().code == somm::ErrorCode::ParseError ? kExitUsage : kExitFailure;
+    return kExitFailure;  // a bad scene file is a failed operation (exit 1), never a usage error
   }
   const somm::Scene& s = *scene;
   // Alpha-tested materials, and those of them that can fail the alpha test (the baker's conservative
@@ -129,19 +133,19 @@ int run(const Options& o) {
   for (size_t i = 0; i < s.geometries.size(); ++i) {
     const somm::Geometry& g = s.geometries[i];
     const somm::Material& m = s.materials[g.material];
-    out.put("  " + to_string(i) + "  " + g.name + ": " + to_string(g.triangleCount()) + " triangles, " +
+    out.put("  " + to_string(i) + "  " + somm::escapeName(g.name) + ": " + to_string(g.triangleCount()) + " triangles, " +
             to_string(g.positions.size() / 3) + " vertices, material " + to_string(g.material) + " '" +
-            m.name + "' (" + modeName(m.alphaMode) + ")\n");
+            somm::escapeName(m.name) + "' (" + modeName(m.alphaMode) + ")\n");
   }
   out.put("materials:\n");
   for (size_t i = 0; i < s.materials.size(); ++i) {
     const somm::Material& m = s.materials[i];
-    std::string line = "  " + to_string(i) + "  '" + m.name + "': " + modeName(m.alphaMode);
+    std::string line = "  " + to_string(i) + "  '" + somm::escapeName(m.name) + "': " + modeName(m.alphaMode);
     if (m.alphaTested()) {
       line += ", cutoff " + fmt("%g", m.alphaCutoff);
       if (m.alpha)
         line += ", alpha " + to_string(m.alpha->width) + "x" + to_string(m.alpha->height) + " from " +
-                m.alphaSource + ", " + filterName(m.sampler.filter) + ", wrap " + wrapName(m.sampler.wrapS) +
+                somm::escapeName(m.alphaSource) + ", " + filterName(m.sampler.filter) + ", wrap " + wrapName(m.sampler.wrapS) +
                 "/" + wrapName(m.sampler.wrapT);
       else
         line += ", constant alpha " + fmt("%g", m.baseColorFactor[3]);
@@ -166,6 +170,7 @@ void setup(CLI::App& root) {
                                       "command numbers them, with materials, alpha "
                                       "modes, cutoffs, alpha textures and samplers.");
   cmd->add_option("scene", opts->path, "scene file (.gltf, .glb or .obj)")->required();
+  somm::cli::addLimitOption(cmd, opts->limits);
   cmd->add_flag("--blend-as-mask", opts->blendAsMask, "treat glTF BLEND materials as MASK with their cutoff");
   cmd->add_flag("--json", opts->json, "machine-readable output");
   cmd->callback([opts] { somm::cli::setExitCode(run(*opts)); });

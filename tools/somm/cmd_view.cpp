@@ -11,6 +11,8 @@
 #include "command.h"
 #include "legend.h"
 #include "somm/state_colours.h"
+#include "limits_cli.h"
+#include "somm/io.h"
 #include "somm/bird.h"
 #include "somm/scene.h"
 #include "somm/somm_file.h"
@@ -21,6 +23,7 @@ struct Options {
   std::string path, output, scene, triangles;
   uint64_t geometry = 0;
   uint32_t size = 1024;
+  std::vector<std::string> limits;
 };
 
 // Overlay colours: somm/state_colours.h (the one table of every picture).
@@ -42,6 +45,12 @@ bool endsWithObj(const std::string& p) {
 
 int run(const Options& o) {
   using namespace somm::cli;
+  somm::LoadOptions lo;
+  if (!applyLimits("view", o.limits, lo.limits)) return kExitUsage;
+  if (somm::Status s = somm::checkOutputPath(o.output, {o.path, o.scene}); !s) {
+    printError("view", s.error().message);
+    return kExitUsage;
+  }
   auto file = somm::readSommFile(o.path);
   if (!file) {
     printError("view", file.error().message);
@@ -80,7 +89,10 @@ int run(const Options& o) {
     const auto alt = std::filesystem::path(o.path).parent_path() / scenePath;
     if (std::filesystem::exists(alt)) scenePath = alt.string();
   }
-  somm::LoadOptions lo;
+  if (somm::Status s = somm::checkOutputPath(o.output, {scenePath}); !s) {
+    printError("view", s.error().message);
+    return kExitUsage;
+  }
   for (const auto& [k, v] : f.bakeOptions)
     if (k == "blend_as_mask") lo.blendAsMask = v == "true";
   auto scene = somm::loadScene(scenePath, lo);
@@ -125,6 +137,10 @@ int run(const Options& o) {
   // the micro-triangle so that borders can be outlined afterwards.
   std::vector<uint64_t> id(size_t(w) * h, 0);
   const bool twoState = sg.format == somm::Format::TwoState;
+  // Work bound: pixels visited over all triangles ≤ 16 × the image (huge UV triangles cover it whole; a
+  // thousand of them must not cost a minute).
+  const uint64_t budget = uint64_t(16) * w * h + (uint64_t(1) << 20);
+  uint64_t visited = 0;
   for (uint64_t t = first; t <= last && triangleCount > 0; ++t) {
     double px[3], py[3];
     bool finite = true;
@@ -151,6 +167,12 @@ int run(const Options& o) {
     const int64_t x1 = std::min<int64_t>(int64_t(w) - 1, int64_t(std::ceil(std::max({px[0], px[1], px[2]}))));
     const int64_t y0 = std::max<int64_t>(0, int64_t(std::floor(std::min({py[0], py[1], py[2]}))));
     const int64_t y1 = std::min<int64_t>(int64_t(h) - 1, int64_t(std::ceil(std::max({py[0], py[1], py[2]}))));
+    if (x1 >= x0 && y1 >= y0) visited += uint64_t(x1 - x0 + 1) * uint64_t(y1 - y0 + 1);
+    if (visited > budget) {
+      printError("view", "note: drew triangles " + std::to_string(first) + "-" + std::to_string(t - 1) +
+                             " only: the rest cover more than 16 times the image (huge UV triangles)");
+      break;
+    }
     for (int64_t y = y0; y <= y1; ++y)
       for (int64_t x = x0; x <= x1; ++x) {
         const double cx = double(x) + 0.5, cy = double(y) + 0.5;
@@ -205,6 +227,7 @@ void setup(CLI::App& root) {
       "orange "
       "unknown-transparent, red unknown-opaque), micro-triangles outlined when large enough.");
   cmd->add_option("file", o->path, ".somm file")->required();
+  somm::cli::addLimitOption(cmd, o->limits);
   cmd->add_option("--geometry,-g", o->geometry, "geometry index (see somm info)")->required();
   cmd->add_option("--triangles,-t", o->triangles,
                   "triangle range A-B (inclusive) or a single index; default all");

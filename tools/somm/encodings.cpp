@@ -76,6 +76,8 @@ Result<EncodedArray> loadEncoding(const SommFile& file, uint32_t array, Encoding
       return makeError(ErrorCode::CorruptFile,
                        where + ": encoding '" + encodingName(e) +
                            "' does not match the array (encoding id or triangle count)");
+    if (Status v = verifyAgainstFlat(*a, flat, where + " encoding '" + encodingName(e) + "'"); !v)
+      return v.error();
     return a;
   }
   return makeError(

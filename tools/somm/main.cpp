@@ -1,8 +1,12 @@
 // SPDX-License-Identifier: MIT
+#include <cerrno>
 #include <charconv>
+#include <cstring>
+#include <new>
 #include <vector>
 
 #include "command.h"
+#include "somm/io.h"
 
 namespace somm::cli {
 
@@ -23,7 +27,22 @@ Registration::Registration(const char* name, SetupFn setup) { registry().push_ba
 void setExitCode(int code) { g_exitCode = code; }
 
 void printError(std::string_view command, std::string_view message) {
-  std::fprintf(stderr, "somm %.*s: %.*s\n", int(command.size()), command.data(), int(message.size()), message.data());
+  // Names from files inside messages: control bytes (a newline would forge a second line, escape sequences
+  // reach the terminal) and invalid UTF-8 as \xNN, so the message is always one printable line.
+  const std::string m = escapeName(std::string(message));
+  std::fprintf(stderr, "somm %.*s: %s\n", int(command.size()), command.data(), m.c_str());
+}
+
+namespace {
+bool g_stdoutFailed = false;
+}  // namespace
+
+void Output::flush() {
+  if (!buf_.empty() && !g_stdoutFailed) {
+    if (std::fwrite(buf_.data(), 1, buf_.size(), stdout) != buf_.size()) g_stdoutFailed = true;
+  }
+  buf_.clear();
+  if (!g_stdoutFailed && std::fflush(stdout) != 0) g_stdoutFailed = true;
 }
 
 void Output::putUInt(uint64_t v) {
@@ -33,11 +52,6 @@ void Output::putUInt(uint64_t v) {
   if (buf_.size() >= (1 << 16)) flush();
 }
 
-void Output::flush() {
-  if (!buf_.empty()) std::fwrite(buf_.data(), 1, buf_.size(), stdout);
-  buf_.clear();
-  std::fflush(stdout);
-}
 
 }  // namespace somm::cli
 
@@ -62,9 +76,28 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "somm: %s\n", msg.c_str());
     std::fprintf(stderr, "Run with --help for more information.\n");
     return kExitUsage;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "somm: internal error: %s\n", e.what());
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "somm %s: out of memory\n",
+                 app.get_subcommands().empty() ? "" : app.get_subcommands()[0]->get_name().c_str());
     return kExitFailure;
+  } catch (const std::length_error&) {
+    std::fprintf(stderr, "somm %s: out of memory (a size beyond what can be allocated)\n",
+                 app.get_subcommands().empty() ? "" : app.get_subcommands()[0]->get_name().c_str());
+    return kExitFailure;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "somm: internal error: %s\n", somm::escapeName(e.what()).c_str());
+    return kExitFailure;
+  }
+  // Output written with printf or through Output: a failed write or flush (a full disk, /dev/full, a closed
+  // pipe) is a failure, never a silent success.
+  if (!g_stdoutFailed && std::fflush(stdout) != 0) g_stdoutFailed = true;
+  if (!g_stdoutFailed && std::ferror(stdout)) g_stdoutFailed = true;
+  if (g_stdoutFailed) {
+    const int e = errno;
+    std::fprintf(stderr, "somm %s: cannot write to standard output: %s\n",
+                 app.get_subcommands().empty() ? "" : app.get_subcommands()[0]->get_name().c_str(),
+                 std::strerror(e ? e : EIO));
+    return g_exitCode == kExitOk ? kExitFailure : g_exitCode;
   }
   return g_exitCode;
 }

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "command.h"
+#include "limits_cli.h"
 #include "somm/bake.h"
 #include "somm/somm_file.h"
 
@@ -38,6 +39,7 @@ void addTraceOptions(CLI::App* cmd, TraceCliOptions& o) {
                 "micromap methods: keep triangles with a special index on the filter path (default: fully "
                 "transparent ones leave the BVH, fully opaque ones lose their filter, as with hardware micromaps)");
   cmd->add_flag("--json", o.json, "print JSON instead of text");
+  addLimitOption(cmd, o.limits);
 }
 
 Result<Camera> parseCamera(const std::string& text) {
@@ -110,10 +112,14 @@ std::unique_ptr<PreparedTrace> prepareTrace(const char* command, const TraceCliO
   auto p = std::make_unique<PreparedTrace>();
   LoadOptions lo;
   lo.blendAsMask = o.blendAsMask;
+  if (!applyLimits(command, o.limits, lo.limits)) {
+    exitCode = kExitUsage;
+    return nullptr;
+  }
   auto loaded = loadScene(o.scene, lo);
   if (!loaded) {
     printError(command, loaded.error().message);
-    exitCode = loaded.error().code == ErrorCode::ParseError ? kExitUsage : kExitFailure;
+    exitCode = kExitFailure;  // a bad scene file is a failed operation, never a usage error
     return nullptr;
   }
   Scene scene = std::move(loaded).value();
@@ -201,6 +207,11 @@ std::unique_ptr<PreparedTrace> prepareTrace(const char* command, const TraceCliO
     if (Status s = validateBakeOptions(bo); !s) {
       printError(command, s.error().message);
       exitCode = kExitUsage;
+      return nullptr;
+    }
+    if (Status s = checkBakeWork(*p->scene, bo, lo.limits); !s) {
+      printError(command, s.error().message);
+      exitCode = kExitFailure;
       return nullptr;
     }
     const auto start = std::chrono::steady_clock::now();

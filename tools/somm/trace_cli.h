@@ -26,6 +26,7 @@ struct TraceCliOptions {
   bool blendAsMask = false;
   bool noSplit = false;  // omm methods: keep special-index triangles on the filter path (for comparisons)
   bool json = false;
+  std::vector<std::string> limits;  // --limit NAME=VALUE
 };
 
 void addTraceOptions(CLI::App* cmd, TraceCliOptions& o);

@@ -81,7 +81,7 @@ int wrapCode(Wrap w) {
 
 }  // namespace
 
-Status writeGlb(const Scene& scene, const std::string& path) {
+Result<std::vector<uint8_t>> encodeGlb(const Scene& scene, const std::string& path) {
   using nlohmann::json;
   auto fail = [&](ErrorCode c, const std::string& what) -> Error { return makeError(c, path + ": " + what); };
   std::vector<uint8_t> bin;
@@ -254,7 +254,14 @@ Status writeGlb(const Scene& scene, const std::string& path) {
   glb.insert(glb.end(), text.begin(), text.end());
   le32(uint32_t(bin.size())), le32(0x004E4942);
   glb.insert(glb.end(), bin.begin(), bin.end());
+  return glb;
+}
 
+Status writeGlb(const Scene& scene, const std::string& path) {
+  auto fail = [&](ErrorCode c, const std::string& what) -> Error { return makeError(c, path + ": " + what); };
+  auto encoded = encodeGlb(scene, path);
+  if (!encoded) return encoded.error();
+  const std::vector<uint8_t>& glb = *encoded;
   const std::string tmp = path + ".tmp";
   {
     std::ofstream f(tmp, std::ios::binary | std::ios::trunc);

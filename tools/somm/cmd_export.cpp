@@ -6,6 +6,7 @@
 
 #include "command.h"
 #include "file_summary.h"
+#include "somm/gltf.h"
 #include "somm/somm_file.h"
 
 namespace {
@@ -24,7 +25,7 @@ nlohmann::json usageJson(const std::vector<somm::UsageCount>& h) {
 
 int run(const Options& o) {
   using namespace somm::cli;
-  auto file = somm::readSommFile(o.path);
+  auto file = somm::readMicromapFile(o.path);  // .somm or glTF (EXT_mesh_opacity_micromap)
   if (!file) {
     printError("export", file.error().message);
     return kExitFailure;

@@ -6,6 +6,7 @@
 #include "command.h"
 #include "encodings.h"
 #include "file_summary.h"
+#include "somm/gltf.h"
 #include "somm/somm_file.h"
 
 namespace {
@@ -63,7 +64,7 @@ std::string ratioLine(const somm::cli::EncodingSizes& s) {
 
 int run(const Options& o) {
   using namespace somm::cli;
-  auto file = somm::readSommFile(o.path);
+  auto file = somm::readMicromapFile(o.path);  // .somm or glTF (EXT_mesh_opacity_micromap)
   if (!file) {
     printError("info", file.error().message);
     return kExitFailure;

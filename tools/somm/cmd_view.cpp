@@ -10,6 +10,7 @@
 #include "command.h"
 #include "somm/bird.h"
 #include "somm/scene.h"
+#include "somm/gltf.h"
 #include "somm/somm_file.h"
 
 namespace {
@@ -40,7 +41,7 @@ bool endsWithObj(const std::string& p) {
 
 int run(const Options& o) {
   using namespace somm::cli;
-  auto file = somm::readSommFile(o.path);
+  auto file = somm::readMicromapFile(o.path);  // .somm or glTF (EXT_mesh_opacity_micromap)
   if (!file) {
     printError("view", file.error().message);
     return kExitFailure;

@@ -454,6 +454,13 @@ Result<GltfMicromapsRead> readDocumentMicromaps(Document& d) {
       unknown += arrays[size_t(micromap)].unknownPerRecord[size_t(v)];
     }
     info.format = (any && !fourState) ? Format::TwoState : Format::FourState;
+    // The format somm baked with (a 2-state bake may hold only special indices, even -4 for BLEND).
+    if (const json* extras = member(*x, "extras")) {
+      const json* s = member(*extras, "somm");
+      int64_t f = 0;
+      if (s && getInt(*s, "format", f) && (f == 1 || f == 2) && !(f == 1 && any && fourState))
+        info.format = Format(uint16_t(f));
+    }
     info.minLevel = any ? lo : 0;
     info.maxLevel = any ? hi : 0;
     info.stats.microTriangles = micro;

@@ -356,6 +356,7 @@ Status writeGltfMicromaps(const std::string& outPath, const std::string& scenePa
     }
     x["extras"] = {{"somm",
                     {{"cutoff", floatJson(info[g].cutoff)},
+                     {"format", int(info[g].format)},
                      {"filter", info[g].sampler.filter == Filter::Nearest ? "nearest" : "linear"}}}};
     json& p = root["meshes"][r.mesh]["primitives"][r.primitive];
     if (!p.contains("extensions") || !p["extensions"].is_object()) p["extensions"] = json::object();

@@ -33,7 +33,7 @@ Result<MicromapSource> loadMicromapSource(const std::string& path) {
                      path + ": a glTF without " + std::string(kGltfMicromapExtension) + " holds no micromaps");
   GltfMicromaps& m = read->value;
   src.container = kGltfMicromapExtension;
-  src.file.sourcePath = m.sourcePath.empty() ? path : m.sourcePath;
+  src.file.sourcePath = path;  // the glTF holds the scene itself, in the same geometry numbering
   src.file.toolVersion = m.toolVersion;
   src.file.bakeOptions = m.bakeOptions;
   for (size_t g = 0; g < m.geometries.size(); ++g) {

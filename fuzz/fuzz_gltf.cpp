@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Fuzz target: the glTF 2.0 path of loadScene (tinygltf + our accessor, material, texture and node handling), and
 // the EXT_mesh_opacity_micromap reader (readGltfMicromaps: every MUST of the draft; docs/gltf.md) on the same file.
 // The first input byte picks .gltf (even) or .glb (odd); the rest is the file. The scratch directory holds

@@ -43,8 +43,9 @@ Status writeGltfMicromaps(const std::string& outPath, const std::string& scenePa
                           const SceneMicromaps& micromaps, const std::vector<GeometryInfo>& info,
                           const GltfWriteOptions& options = {});
 
-// What `somm bake -o OUT` writes: a glTF with the extension when OUT ends in .gltf/.glb (the geometries' arrays merged
-// into one scene-wide array; tool version and bake options in the extras), else the .somm file.
+// What `somm bake -o OUT` writes: a glTF with the extension when OUT ends in .gltf/.glb (file.micromaps as they are —
+// the bake's scene-wide array by default; tool version, source and bake options in the extras; further encodings are
+// not stored), else the .somm file.
 Status writeBakeOutput(const std::string& outPath, const std::string& scenePath, const Scene& scene,
                        const SommFile& file);
 
@@ -70,14 +71,17 @@ Result<GltfMicromapsRead> readGltfMicromaps(const std::string& path);
 Result<GltfMicromapsRead> parseGltfMicromaps(const std::vector<uint8_t>& bytes, bool binary,
                                              const std::string& path);
 
-// The micromaps of a .somm file or of a glTF with EXT_mesh_opacity_micromap (chosen by content: the .somm magic,
-// the GLB magic, else glTF JSON), for the commands that read micromaps (info, query, export, view, render, bench).
+// The micromaps of a .somm file or of a glTF with EXT_mesh_opacity_micromap (chosen by content: the GLB magic or JSON
+// text starting with '{' → glTF, else .somm), for the commands that read micromaps (info, query, export, view, render,
+// bench). For a glTF, `file` holds its SceneMicromaps as stored, the per-geometry GeometryInfo, no further encodings
+// (one empty list per array) and sourcePath = the glTF itself (it is the scene, in the same geometry numbering).
 struct MicromapSource {
-  std::string container;     // "somm" or "EXT_mesh_opacity_micromap"
-  SommFile file;             // per geometry a stand-alone array + metadata (what the commands read)
-  SceneMicromaps micromaps;  // the arrays as stored (glTF: shared by the primitives)
+  std::string container;  // "somm" or "EXT_mesh_opacity_micromap"
+  uint32_t sommVersion = 0;  // the .somm container version as stored (0 for a glTF)
+  SommFile file;
 };
 Result<MicromapSource> loadMicromapSource(const std::string& path);
+Result<MicromapSource> parseMicromapSource(const std::vector<uint8_t>& bytes, const std::string& path);
 // loadMicromapSource(path)->file: a drop-in for readSommFile that also reads glTF micromaps.
 Result<SommFile> readMicromapFile(const std::string& path);
 

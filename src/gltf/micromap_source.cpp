@@ -8,25 +8,25 @@
 
 namespace somm {
 
-Result<MicromapSource> loadMicromapSource(const std::string& path) {
-  auto bytes = readWholeFile(path);
-  if (!bytes) return bytes.error();
+Result<MicromapSource> parseMicromapSource(const std::vector<uint8_t>& bytes, const std::string& path) {
   MicromapSource src;
-  const bool glb = bytes->size() >= 4 && std::memcmp(bytes->data(), "glTF", 4) == 0;
+  const bool glb = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
   size_t first = 0;
-  while (first < bytes->size() && std::strchr(" \t\r\n", char((*bytes)[first])) && (*bytes)[first] != 0) ++first;
-  const bool json = !glb && first < bytes->size() && (*bytes)[first] == '{';
+  while (first < bytes.size() && (bytes[first] == ' ' || bytes[first] == '\t' || bytes[first] == '\r' ||
+                                  bytes[first] == '\n'))
+    ++first;
+  const bool json = !glb && first < bytes.size() && bytes[first] == '{';
   if (!glb && !json) {
-    auto file = parseSomm(*bytes, path);
+    auto file = parseSomm(bytes, path);
     if (!file) return file.error();
     src.container = "somm";
-    std::vector<OmmArray> flats;
-    for (const SommGeometry& g : file->geometries) flats.push_back(g.flat);
-    src.micromaps = perGeometryMicromaps(std::move(flats));
+    if (bytes.size() >= 12)
+      src.sommVersion = uint32_t(bytes[8]) | uint32_t(bytes[9]) << 8 | uint32_t(bytes[10]) << 16 |
+                        uint32_t(bytes[11]) << 24;
     src.file = std::move(*file);
     return src;
   }
-  auto read = parseGltfMicromaps(*bytes, glb, path);
+  auto read = parseGltfMicromaps(bytes, glb, path);
   if (!read) return read.error();
   if (!read->present)
     return makeError(ErrorCode::UnsupportedFormat,
@@ -36,31 +36,26 @@ Result<MicromapSource> loadMicromapSource(const std::string& path) {
   src.file.sourcePath = path;  // the glTF holds the scene itself, in the same geometry numbering
   src.file.toolVersion = m.toolVersion;
   src.file.bakeOptions = m.bakeOptions;
-  for (size_t g = 0; g < m.geometries.size(); ++g) {
-    SommGeometry sg;
-    sg.info = m.geometries[g];
-    sg.flat = m.micromaps.standalone(uint32_t(g));
-    src.file.geometries.push_back(std::move(sg));
-  }
-  src.micromaps = std::move(m.micromaps);
+  src.file.geometries = std::move(m.geometries);
+  src.file.micromaps = std::move(m.micromaps);
+  src.file.encodings.resize(src.file.micromaps.arrays.size());
   return src;
+}
+
+Result<MicromapSource> loadMicromapSource(const std::string& path) {
+  auto bytes = readWholeFile(path);
+  if (!bytes) return bytes.error();
+  return parseMicromapSource(*bytes, path);
 }
 
 Status writeBakeOutput(const std::string& outPath, const std::string& scenePath, const Scene& scene,
                        const SommFile& file) {
   if (!isGltfPath(outPath)) return writeSommFile(outPath, file);
-  std::vector<OmmArray> flats;
-  std::vector<GeometryInfo> info;
-  for (const SommGeometry& g : file.geometries) {
-    flats.push_back(g.flat);
-    info.push_back(g.info);
-  }
   GltfWriteOptions o;
   o.toolVersion = file.toolVersion;
   o.sourcePath = file.sourcePath;
   o.bakeOptions = file.bakeOptions;
-  return writeGltfMicromaps(outPath, scenePath, scene, mergeToSceneArray(perGeometryMicromaps(std::move(flats))), info,
-                            o);
+  return writeGltfMicromaps(outPath, scenePath, scene, file.micromaps, file.geometries, o);
 }
 
 Result<SommFile> readMicromapFile(const std::string& path) {

@@ -44,32 +44,50 @@ int runValidator(const std::string& args, std::string* output = nullptr) {
 
 // Every micro-triangle of every triangle: the glTF's states equal the .somm's.
 void expectSameStates(const somm::SommFile& somm, const somm::GltfMicromaps& g, bool gltfInput) {
-  ASSERT_EQ(somm.geometries.size(), g.micromaps.geometries.size());
+  const somm::SceneMicromaps& sm = somm.micromaps;
+  ASSERT_EQ(sm.geometries.size(), g.micromaps.geometries.size());
+  ASSERT_EQ(somm.geometries.size(), g.geometries.size());
   uint64_t checked = 0;
-  for (uint32_t gi = 0; gi < somm.geometries.size(); ++gi) {
-    const somm::OmmArray& a = somm.geometries[gi].flat;
-    ASSERT_EQ(a.indices.size(), g.micromaps.geometries[gi].triangleCount) << "geometry " << gi;
+  for (uint32_t gi = 0; gi < sm.geometries.size(); ++gi) {
+    const uint32_t n = sm.geometries[gi].triangleCount;
+    ASSERT_EQ(n, g.micromaps.geometries[gi].triangleCount) << "geometry " << gi;
+    const somm::OmmArray& a = sm.arrayOf(gi);
+    const int32_t* ai = sm.indices(gi);
     const somm::OmmArray& b = g.micromaps.arrayOf(gi);
     const int32_t* bi = g.micromaps.indices(gi);
-    for (uint32_t t = 0; t < a.indices.size(); ++t) {
-      const uint32_t la = a.indices[t] >= 0 ? a.descriptors[size_t(a.indices[t])].subdivisionLevel : 0;
+    for (uint32_t t = 0; t < n; ++t) {
+      const uint32_t la = ai[t] >= 0 ? a.descriptors[size_t(ai[t])].subdivisionLevel : 0;
       const uint32_t lb = bi[t] >= 0 ? b.descriptors[size_t(bi[t])].subdivisionLevel : 0;
       const uint32_t level = std::max(la, lb);
-      if (a.indices[t] >= 0 && bi[t] >= 0) {
+      if (ai[t] >= 0 && bi[t] >= 0) {
         ASSERT_EQ(la, lb) << "geometry " << gi << " triangle " << t;
       }
       for (uint32_t i = 0; i < (1u << (2 * level)); ++i) {
-        ASSERT_EQ(int(a.state(t, i)), int(g.micromaps.state(gi, t, i)))
+        ASSERT_EQ(int(sm.state(gi, t, i)), int(g.micromaps.state(gi, t, i)))
             << "geometry " << gi << " triangle " << t << " micro-triangle " << i;
         ++checked;
       }
     }
-    EXPECT_EQ(somm.geometries[gi].info.format, g.geometries[gi].format) << gi;
-    EXPECT_EQ(somm.geometries[gi].info.cutoff, g.geometries[gi].cutoff) << gi;
-    EXPECT_EQ(somm.geometries[gi].info.sampler, g.geometries[gi].sampler) << gi;
-    if (gltfInput) {
-      EXPECT_EQ(somm.geometries[gi].info.name, g.geometries[gi].name) << gi;
+    EXPECT_EQ(somm.geometries[gi].format, g.geometries[gi].format) << gi;
+    EXPECT_EQ(somm.geometries[gi].cutoff, g.geometries[gi].cutoff) << gi;
+    EXPECT_EQ(somm.geometries[gi].sampler, g.geometries[gi].sampler) << gi;
+    bool usesRecords = false;
+    for (uint32_t t = 0; t < n; ++t) usesRecords = usesRecords || bi[t] >= 0;
+    if (usesRecords) {  // without records the glTF has no levels (the .somm keeps the bake's)
+      EXPECT_EQ(somm.geometries[gi].minLevel, g.geometries[gi].minLevel) << gi;
+      EXPECT_EQ(somm.geometries[gi].maxLevel, g.geometries[gi].maxLevel) << gi;
     }
+    if (gltfInput) {
+      EXPECT_EQ(somm.geometries[gi].name, g.geometries[gi].name) << gi;
+    }
+  }
+  // The default bake's scene-wide array is stored as it is: same records, data and index buffers.
+  ASSERT_EQ(sm.arrays.size(), g.micromaps.arrays.size());
+  for (size_t k = 0; k < sm.arrays.size(); ++k) {
+    if (sm.arrays[k].descriptors.empty()) continue;  // written with one unused record
+    EXPECT_EQ(sm.arrays[k].descriptors, g.micromaps.arrays[k].descriptors) << k;
+    EXPECT_EQ(sm.arrays[k].data, g.micromaps.arrays[k].data) << k;
+    EXPECT_EQ(sm.arrays[k].indices, g.micromaps.arrays[k].indices) << k;
   }
   EXPECT_GT(checked, 0u);
 }

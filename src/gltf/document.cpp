@@ -2,6 +2,7 @@
 // somm — glTF document parsing: GLB container, JSON, buffers (GLB chunk, base64 data URIs, external files).
 #include "document.h"
 
+#include <algorithm>
 #include <cstring>
 #include <filesystem>
 
@@ -120,6 +121,7 @@ Result<Document> parseDocument(const std::vector<uint8_t>& bytes, bool binary, c
   Document d;
   d.path = path;
   d.binary = binary;
+  d.fileBytes = bytes.size();
   const char* text = reinterpret_cast<const char*>(bytes.data());
   size_t textSize = bytes.size();
   if (binary) {
@@ -158,6 +160,25 @@ Result<Document> readDocument(const std::string& path) {
   if (!bytes) return bytes.error();
   const bool binary = bytes->size() >= 4 && le32(bytes->data()) == 0x46546C67u;
   return parseDocument(*bytes, binary, path);
+}
+
+uint64_t Document::bufferBound(size_t i) const {
+  const json* buffers = root.contains("buffers") ? &root["buffers"] : nullptr;
+  if (!buffers || !buffers->is_array() || i >= buffers->size()) return 0;
+  const json& b = (*buffers)[i];
+  int64_t len = 0;
+  if (!getInt(b, "byteLength", len) || len < 1) return 0;
+  uint64_t bound = fileBytes;
+  if (b.contains("uri") && b["uri"].is_string()) {
+    const std::string uri = b["uri"].get<std::string>();
+    if (!isDataUri(uri)) {
+      std::error_code ec;
+      const auto n = std::filesystem::file_size(
+          std::filesystem::path(path).parent_path() / std::filesystem::path(percentDecode(uri)), ec);
+      bound = ec ? 0 : uint64_t(n);
+    }
+  }
+  return std::min<uint64_t>(bound, uint64_t(len));
 }
 
 Result<const std::vector<uint8_t>*> Document::buffer(size_t i) {

@@ -20,6 +20,11 @@ struct Document {
   json root;
   std::vector<uint8_t> bin;  // the GLB binary chunk (empty for .gltf)
   bool hasBin = false;
+  uint64_t fileBytes = 0;  // size of the parsed file
+
+  // An upper bound of buffer i's real size without loading it: ≤ the file for embedded buffers, ≤ the referenced
+  // file for external ones (0 when that does not exist), never more than its byteLength.
+  uint64_t bufferBound(size_t i) const;
 
   // Buffer i's bytes (exactly byteLength of them). Loaded on first use: the GLB chunk, a data URI or a file relative
   // to `path`. Errors name the buffer.

@@ -97,6 +97,19 @@ Result<std::vector<PrimitiveRef>> primitives(Document& d) {
             !getInt((*accessors)[size_t(acc)], "count", count) || count < 0)
           return d.fail(ErrorCode::CorruptFile, r.where + ": accessor " + std::to_string(acc) +
                                                     " does not exist or has no valid count");
+        // Memory bound: the count must be backed by its buffer view (≥ 1 byte per element), or be small when the
+        // accessor has no buffer view (all zeros), as loadScene requires.
+        const json& a = (*accessors)[size_t(acc)];
+        int64_t view = -1, viewLength = 0;
+        const json* views = array(d.root, "bufferViews");
+        if (getInt(a, "bufferView", view)) {
+          if (view < 0 || !views || uint64_t(view) >= views->size() ||
+              !getInt((*views)[size_t(view)], "byteLength", viewLength) || count > viewLength)
+            return d.fail(ErrorCode::CorruptFile, r.where + ": accessor " + std::to_string(acc) + ": " +
+                                                      std::to_string(count) + " elements do not fit its buffer view");
+        } else if (count > (int64_t(1) << 20)) {
+          return d.fail(ErrorCode::LimitExceeded, r.where + ": accessor " + std::to_string(acc) + ": too many elements");
+        }
         if (count / 3 > int64_t(UINT32_MAX)) return d.fail(ErrorCode::LimitExceeded, r.where + ": too many triangles");
         r.triangles = uint32_t(count / 3);
       }
@@ -232,7 +245,8 @@ Result<ArrayRead> readArray(Document& d, const json& m, size_t i) {
   }
   // Per distinct (level, format): the sum of its usage counts equals the number of records with that pair.
   uint64_t usage[13][3] = {};
-  for (size_t k = 0; k < counts.size(); ++k) usage[levels[k]][formats[k]] += uint64_t(counts[k]);
+  for (size_t k = 0; k < counts.size(); ++k)
+    usage[levels[k]][formats[k]] += std::min<uint64_t>(uint64_t(counts[k]), uint64_t(n) + 1);  // no overflow
   for (uint32_t l = 0; l <= 12; ++l)
     for (uint32_t f = 1; f <= 2; ++f)
       if (usage[l][f] != pairCount[l][f])
@@ -282,6 +296,15 @@ Result<GltfMicromapsRead> readDocumentMicromaps(Document& d) {
     for (const json& u : *used) listed = listed || (u.is_string() && u.get<std::string>() == kExt);
   if (!listed) return fail(kExt + " is used but not listed in extensionsUsed (glTF 2.0: it MUST be listed)");
 
+  // Memory bound over the whole file (primitives may share accessors): 4 bytes per triangle within 64 MiB + 16x the
+  // buffer bytes the file declares (embedded buffers are bounded by the file, external ones by their files).
+  uint64_t triangles = 0, declared = 0;
+  for (const PrimitiveRef& r : *prims) triangles += r.triangles;
+  if (const json* bufs = array(d.root, "buffers"))
+    for (size_t b = 0; b < bufs->size(); ++b) declared += d.bufferBound(b);
+  if (4 * triangles > (uint64_t(64) << 20) + 16 * declared)
+    return d.fail(ErrorCode::LimitExceeded, "the primitives' " + std::to_string(triangles) +
+                                                " triangles exceed 16x the file's buffer bytes + 64 MiB");
   GltfMicromaps& out = result.value;
   std::vector<ArrayRead> arrays;
   if (rootExt) {

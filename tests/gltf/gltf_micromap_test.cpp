@@ -537,3 +537,30 @@ TEST(GltfMicromap, RenderUsesEmbeddedMicromaps) {
 }
 
 }  // namespace
+
+namespace {
+
+// Hostile counts: a tiny file cannot make the reader allocate for billions of triangles.
+TEST(GltfMicromap, TriangleCountsAreBoundedByTheFile) {
+  json j = draftExample();
+  j["accessors"][1] = {{"componentType", 5125}, {"count", 3000000000LL}, {"type", "SCALAR"}};  // no buffer view
+  auto r = readJson(j);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("too many elements"), std::string::npos) << r.error().message;
+  j = draftExample();
+  j["accessors"][1]["count"] = 1000;  // more than its 9-byte buffer view holds
+  r = readJson(j);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("do not fit its buffer view"), std::string::npos) << r.error().message;
+  // 100000 primitives sharing one accessor of 2^20 zero indices: 3.5e10 triangles from a few MB of JSON.
+  j = draftExample();
+  j["accessors"][1] = {{"componentType", 5121}, {"count", 1 << 20}, {"type", "SCALAR"}};
+  json p = j["meshes"][0]["primitives"][0];
+  p.erase("extensions");
+  for (int i = 0; i < 2000; ++i) j["meshes"][0]["primitives"].push_back(p);
+  r = readJson(j);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, somm::ErrorCode::LimitExceeded) << r.error().message;
+}
+
+}  // namespace

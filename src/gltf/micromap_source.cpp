@@ -10,7 +10,14 @@ namespace somm {
 
 Result<MicromapSource> parseMicromapSource(const std::vector<uint8_t>& bytes, const std::string& path) {
   MicromapSource src;
-  const bool glb = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
+  // GLB: the magic, version 2 and a length equal to the file's (or a .glb name); anything else is left to the .somm
+  // parser, which names foreign files.
+  const auto le32 = [&](size_t at) {
+    return uint32_t(bytes[at]) | uint32_t(bytes[at + 1]) << 8 | uint32_t(bytes[at + 2]) << 16 |
+           uint32_t(bytes[at + 3]) << 24;
+  };
+  const bool glb = bytes.size() >= 12 && std::memcmp(bytes.data(), "glTF", 4) == 0 && le32(4) == 2 &&
+                   (le32(8) == bytes.size() || isGltfPath(path));
   size_t first = 0;
   while (first < bytes.size() && (bytes[first] == ' ' || bytes[first] == '\t' || bytes[first] == '\r' ||
                                   bytes[first] == '\n'))

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
-// Fuzz target: the glTF 2.0 path of loadScene (tinygltf + our accessor, material, texture and node handling).
+// Fuzz target: the glTF 2.0 path of loadScene (tinygltf + our accessor, material, texture and node handling), and
+// the EXT_mesh_opacity_micromap reader (readGltfMicromaps: every MUST of the draft; docs/gltf.md) on the same file.
 // The first input byte picks .gltf (even) or .glb (odd); the rest is the file. The scratch directory holds
 // t.png and b.bin (64 bytes) for external URIs. Loaded scenes must satisfy the invariants in
 // scene_fuzz_util.h; errors must be one line naming the file.
@@ -7,6 +8,7 @@
 #include <cstdint>
 
 #include "scene_fuzz_util.h"
+#include "somm/gltf.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace somm;
@@ -19,5 +21,26 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     fuzz::checkScene("fuzz_gltf", *s);
   else
     fuzz::checkError("fuzz_gltf", s.error(), path);
+  // The micromaps: accepted ones must be internally consistent (every lookup resolvable, every region readable).
+  const Result<GltfMicromapsRead> m = readGltfMicromaps(path);
+  if (!m.ok()) {
+    fuzz::checkError("fuzz_gltf", m.error(), path);
+    return 0;
+  }
+  if (!m->present) return 0;
+  const SceneMicromaps& mm = m->value.micromaps;
+  if (mm.geometries.size() != m->value.geometries.size()) fuzz::fail("fuzz_gltf", "geometry count mismatch");
+  for (uint32_t g = 0; g < mm.geometries.size(); ++g) {
+    const GeometryMicromaps& r = mm.geometries[g];
+    if (r.array >= mm.arrays.size() || uint64_t(r.firstTriangle) + r.triangleCount > mm.arrays[r.array].indices.size())
+      fuzz::fail("fuzz_gltf", "geometry outside its array");
+    const OmmArray& a = mm.arrays[r.array];
+    for (uint32_t t = 0; t < r.triangleCount; ++t) {
+      const int32_t i = mm.indices(g)[t];
+      if (i < -4 || (i >= 0 && size_t(i) >= a.descriptors.size())) fuzz::fail("fuzz_gltf", "unresolvable lookup");
+      const uint32_t level = i >= 0 ? a.descriptors[size_t(i)].subdivisionLevel : 0;
+      (void)mm.state(g, t, (1u << (2 * level)) - 1);  // the last micro-triangle's bits are inside the data
+    }
+  }
   return 0;
 }

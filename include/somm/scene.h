@@ -103,5 +103,7 @@ Result<Scene> loadScene(const std::string& path, const LoadOptions& options = {}
 // alpha values are rounded to multiples of 1/65535 (exact for 8-bit and binary alphas). Written atomically
 // (temporary file + rename).
 Status writeGlb(const Scene& scene, const std::string& path);
+// The bytes writeGlb writes (`path` only names the file in messages).
+Result<std::vector<uint8_t>> encodeGlb(const Scene& scene, const std::string& path);
 
 }  // namespace somm

@@ -83,7 +83,7 @@ int wrapCode(Wrap w) {
 
 }  // namespace
 
-Status writeGlb(const Scene& scene, const std::string& path) {
+Result<std::vector<uint8_t>> encodeGlb(const Scene& scene, const std::string& path) {
   using nlohmann::json;
   auto fail = [&](ErrorCode c, const std::string& what) -> Error { return makeError(c, path + ": " + what); };
   std::vector<uint8_t> bin;
@@ -256,8 +256,13 @@ Status writeGlb(const Scene& scene, const std::string& path) {
   glb.insert(glb.end(), text.begin(), text.end());
   le32(uint32_t(bin.size())), le32(0x004E4942);
   glb.insert(glb.end(), bin.begin(), bin.end());
+  return glb;
+}
 
-  return writeFileAtomically(path, glb.data(), glb.size());
+Status writeGlb(const Scene& scene, const std::string& path) {
+  auto encoded = encodeGlb(scene, path);
+  if (!encoded) return encoded.error();
+  return writeFileAtomically(path, encoded->data(), encoded->size());
 }
 
 }  // namespace somm

@@ -785,6 +785,7 @@ Result<Scene> GltfLoader::run(bool binary) {
   // Extensions that change how geometry or images must be read cannot be ignored.
   for (const std::string& ext : model_.extensionsRequired) {
     const bool supported = ext == "KHR_texture_transform" || ext == "KHR_mesh_quantization" ||
+                           ext == "EXT_mesh_opacity_micromap" ||  // geometry is complete without it
                            ext.rfind("KHR_materials_", 0) == 0;
     if (!supported) return fail(ErrorCode::UnsupportedFormat, "requires the unsupported extension " + ext);
   }

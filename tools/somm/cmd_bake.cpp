@@ -16,6 +16,7 @@
 #include "limits_cli.h"
 #include "somm/io.h"
 #include "somm/bake.h"
+#include "somm/gltf.h"
 #include "somm/scene.h"
 #include "somm/somm_file.h"
 
@@ -269,7 +270,7 @@ int run(const Options& o) {
       return kExitFailure;
     }
   }
-  if (somm::Status s = somm::writeSommFile(o.output, file); !s) {
+  if (somm::Status s = somm::writeBakeOutput(o.output, o.scene, *scene, file); !s) {
     printError("bake", s.error().message);
     return kExitFailure;
   }
@@ -341,7 +342,7 @@ void setup(CLI::App& root) {
       "Bake conservative opacity micromaps for every geometry of a glTF (.gltf/.glb) or OBJ scene into a "
       ".somm file, and print a summary.");
   cmd->add_option("scene", o->scene, "scene file (.gltf, .glb, .obj)")->required();
-  cmd->add_option("-o,--output", o->output, "output .somm file (written atomically)");
+  cmd->add_option("-o,--output", o->output, "output .somm file, or .glb / .gltf (+ .bin): the scene with its micromaps in EXT_mesh_opacity_micromap (written atomically)");
   cmd->add_option("--level,-l", o->level, "fixed subdivision level 0..12 (default 6)")
       ->check(CLI::Range(0u, 12u));
   cmd->add_option("--max-level", o->maxLevel, "adaptive levels: the cap 0..12")->check(CLI::Range(0u, 12u));

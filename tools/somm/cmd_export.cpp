@@ -8,6 +8,7 @@
 #include "command.h"
 #include "file_summary.h"
 #include "somm/io.h"
+#include "somm/gltf.h"
 #include "somm/somm_file.h"
 
 namespace {
@@ -69,7 +70,7 @@ std::vector<uint8_t> textBytes(const nlohmann::json& j) {
 
 int run(const Options& o) {
   using namespace somm::cli;
-  auto file = somm::readSommFile(o.path);
+  auto file = somm::readMicromapFile(o.path);  // .somm or glTF (EXT_mesh_opacity_micromap)
   if (!file) {
     printError("export", file.error().message);
     return kExitFailure;

@@ -9,6 +9,7 @@
 #include "somm/io.h"
 #include "encodings.h"
 #include "file_summary.h"
+#include "somm/gltf.h"
 #include "somm/somm_file.h"
 
 namespace {
@@ -87,14 +88,14 @@ int run(const Options& o) {
     printError("info", bytes.error().message);
     return kExitFailure;
   }
-  auto file = somm::parseSomm(*bytes, o.path);
-  if (!file) {
-    printError("info", file.error().message);
+  auto src = somm::parseMicromapSource(*bytes, o.path);  // .somm or glTF (EXT_mesh_opacity_micromap)
+  if (!src) {
+    printError("info", src.error().message);
     return kExitFailure;
   }
-  // The container version as stored (version 1 files are read as one array per geometry).
-  const uint32_t version = uint32_t((*bytes)[8]) | uint32_t((*bytes)[9]) << 8 | uint32_t((*bytes)[10]) << 16 |
-                           uint32_t((*bytes)[11]) << 24;
+  auto file = &src->file;
+  // The container version as stored (version 1 files are read as one array per geometry; 0: a glTF).
+  const uint32_t version = src->sommVersion;
   bytes->clear();
   bytes->shrink_to_fit();
   const somm::SommFile& f = *file;
@@ -132,6 +133,7 @@ int run(const Options& o) {
     nlohmann::json j;
     j["file"] = o.path;
     j["version"] = version;
+    j["container"] = src->container;
     j["source"] = f.sourcePath;
     j["tool_version"] = f.toolVersion;
     nlohmann::json opts = nlohmann::json::object();
@@ -183,8 +185,8 @@ int run(const Options& o) {
     return kExitOk;
   }
 
-  out.put(o.path + ": .somm version " + std::to_string(version) + ", written by '" + somm::escapeName(f.toolVersion) + "' from '" +
-          somm::escapeName(f.sourcePath) + "'\n");
+  out.put(o.path + ": " + (version ? ".somm version " + std::to_string(version) : src->container) + ", written by '" +
+          somm::escapeName(f.toolVersion) + "' from '" + somm::escapeName(f.sourcePath) + "'\n");
   if (!f.bakeOptions.empty()) {
     out.put("bake options:");
     for (const auto& [k, v] : f.bakeOptions) out.put(" " + k + "=" + v);

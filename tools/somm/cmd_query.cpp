@@ -5,6 +5,7 @@
 
 #include "command.h"
 #include "encodings.h"
+#include "somm/gltf.h"
 #include "somm/somm_file.h"
 
 namespace {
@@ -18,7 +19,7 @@ struct Options {
 
 int run(const Options& o) {
   using namespace somm::cli;
-  auto file = somm::readSommFile(o.path);
+  auto file = somm::readMicromapFile(o.path);  // .somm or glTF (EXT_mesh_opacity_micromap)
   if (!file) {
     printError("query", file.error().message);
     return kExitFailure;

@@ -15,6 +15,7 @@
 #include "somm/io.h"
 #include "somm/bird.h"
 #include "somm/scene.h"
+#include "somm/gltf.h"
 #include "somm/somm_file.h"
 
 namespace {
@@ -51,7 +52,7 @@ int run(const Options& o) {
     printError("view", s.error().message);
     return kExitUsage;
   }
-  auto file = somm::readSommFile(o.path);
+  auto file = somm::readMicromapFile(o.path);  // .somm or glTF (EXT_mesh_opacity_micromap)
   if (!file) {
     printError("view", file.error().message);
     return kExitFailure;

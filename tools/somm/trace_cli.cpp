@@ -10,6 +10,7 @@
 #include "command.h"
 #include "limits_cli.h"
 #include "somm/bake.h"
+#include "somm/gltf.h"
 #include "somm/somm_file.h"
 
 namespace somm::cli {
@@ -107,6 +108,19 @@ std::shared_ptr<const SceneMicromaps> demote(const SceneMicromaps& four) {
 
 }  // namespace
 
+// --omm, or the scene itself when it is a glTF using EXT_mesh_opacity_micromap, or "" (bake in memory).
+static std::string embeddedMicromapPath(const char* command, const TraceCliOptions& o, bool needMicromaps, int& exitCode) {
+  exitCode = kExitOk;
+  if (!o.omm.empty() || !needMicromaps || !isGltfPath(o.scene)) return o.omm;
+  auto read = readGltfMicromaps(o.scene);
+  if (!read) {
+    printError(command, read.error().message);
+    exitCode = kExitFailure;
+    return "";
+  }
+  return read->present ? o.scene : "";
+}
+
 std::unique_ptr<PreparedTrace> prepareTrace(const char* command, const TraceCliOptions& o, bool needMicromaps,
                                             int& exitCode) {
   auto p = std::make_unique<PreparedTrace>();
@@ -147,15 +161,18 @@ std::unique_ptr<PreparedTrace> prepareTrace(const char* command, const TraceCliO
   p->settings.threads = o.threads;
 
   std::shared_ptr<const SceneMicromaps> flat4, flat2;
-  if (needMicromaps && !o.omm.empty()) {
-    auto file = readSommFile(o.omm);
+  // Without --omm, a glTF scene's own EXT_mesh_opacity_micromap micromaps are used (else they are baked in memory).
+  const std::string ommPath = embeddedMicromapPath(command, o, needMicromaps, exitCode);
+  if (exitCode != kExitOk) return nullptr;
+  if (needMicromaps && !ommPath.empty()) {
+    auto file = readMicromapFile(ommPath);
     if (!file) {
       printError(command, file.error().message);
       exitCode = kExitFailure;
       return nullptr;
     }
     if (file->geometries.size() != scene.geometries.size()) {
-      printError(command, o.omm + ": holds " + std::to_string(file->geometries.size()) + " geometries, " +
+      printError(command, ommPath + ": holds " + std::to_string(file->geometries.size()) + " geometries, " +
                               o.scene + " has " + std::to_string(scene.geometries.size()));
       exitCode = kExitFailure;
       return nullptr;
@@ -164,7 +181,7 @@ std::unique_ptr<PreparedTrace> prepareTrace(const char* command, const TraceCliO
     for (size_t g = 0; g < file->geometries.size(); ++g) {
       const GeometryInfo& sg = file->geometries[g];
       if (sg.triangleCount != scene.geometries[g].triangleCount()) {
-        printError(command, o.omm + ": geometry " + std::to_string(g) + " has " +
+        printError(command, ommPath + ": geometry " + std::to_string(g) + " has " +
                                 std::to_string(sg.triangleCount) + " triangles, the scene's has " +
                                 std::to_string(scene.geometries[g].triangleCount()));
         exitCode = kExitFailure;
@@ -187,7 +204,8 @@ std::unique_ptr<PreparedTrace> prepareTrace(const char* command, const TraceCliO
     } else {
       flat2 = arrays;
     }
-    p->micromapSource = o.omm;
+    p->micromapSource = !isGltfPath(ommPath) ? ommPath
+                        : std::string(kGltfMicromapExtension) + (o.omm.empty() ? " (embedded in " : " (") + ommPath + ")";
   }
   p->scene = std::make_shared<const Scene>(std::move(scene));
   auto world = TraceWorld::create(p->scene);
@@ -198,7 +216,7 @@ std::unique_ptr<PreparedTrace> prepareTrace(const char* command, const TraceCliO
   }
   p->world = *world;
 
-  if (needMicromaps && o.omm.empty()) {
+  if (needMicromaps && ommPath.empty()) {
     BakeOptions bo;
     bo.level = o.level;
     bo.maxLevel = o.maxLevel;

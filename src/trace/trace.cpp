@@ -328,6 +328,7 @@ struct FlatOmmPolicy {
 struct EncodedOmmData {
   const GeometryData* geometry = nullptr;
   const EncodedArray* array = nullptr;
+  uint32_t firstTriangle = 0;  // the geometry's triangles in the scene-wide array
 };
 
 // Compressed micromaps: the encoding's own inline lookup, fixed at compile time.
@@ -336,7 +337,7 @@ struct EncodedOmmPolicy {
   using Data = EncodedOmmData;
   static bool accept(const Data& d, uint32_t prim, float u, float v, TraceCounters& c) noexcept {
     ++c.micromapLookups;
-    const State s = d.array->template stateUVAs<E>(prim, u, v);
+    const State s = d.array->template stateUVAs<E>(d.firstTriangle + prim, u, v);
     if constexpr (!FourState) {
       return (uint8_t(s) & 1u) != 0;
     } else {
@@ -577,23 +578,34 @@ Result<std::unique_ptr<Tracer>> makeEncoded(std::shared_ptr<const TraceWorld> wo
                                             Encoding encoding) {
   if (Status s = checkArrays(*world, *arrays); !s) return s.error();
   const auto& geoms = world->impl().geometries;
+  // One scene-wide array (as the default bake stores it): identical maps and, for csm / sdag, identical
+  // subtrees shared by every alpha-tested geometry.
   struct Store {
-    std::vector<EncodedArray> arrays;
+    EncodedArray array;
     std::vector<detail::EncodedOmmData> data;
   };
   auto store = std::make_shared<Store>();
-  store->arrays.resize(geoms.size());
   store->data.resize(geoms.size());
-  uint64_t bytes = 0;
+  std::vector<OmmArray> tested;
+  std::vector<size_t> testedGeometry;
   for (size_t g = 0; g < geoms.size(); ++g) {
-    detail::EncodedOmmData& d = store->data[g];
-    d.geometry = &geoms[g];
+    store->data[g].geometry = &geoms[g];
     if (!geoms[g].alphaTested) continue;
-    auto built = EncodedArray::build((*arrays)[g], encoding);
+    tested.push_back((*arrays)[g]);
+    testedGeometry.push_back(g);
+  }
+  const SceneMicromaps scene = mergeToSceneArray(perGeometryMicromaps(std::move(tested)));
+  uint64_t bytes = 0;
+  if (!scene.arrays.empty()) {
+    auto built = EncodedArray::build(scene.arrays[0], encoding);
     if (!built) return built.error();
-    store->arrays[g] = std::move(built).value();
-    d.array = &store->arrays[g];
-    bytes += store->arrays[g].byteSize();
+    store->array = std::move(built).value();
+    bytes = store->array.byteSize();
+    for (size_t i = 0; i < testedGeometry.size(); ++i) {
+      detail::EncodedOmmData& d = store->data[testedGeometry[i]];
+      d.array = &store->array;
+      d.firstTriangle = scene.geometries[i].firstTriangle;
+    }
   }
   std::vector<void*> user;
   for (auto& d : store->data) user.push_back(&d);
@@ -613,6 +625,12 @@ Result<std::unique_ptr<Tracer>> makeEncoded(std::shared_ptr<const TraceWorld> wo
       break;
     case Encoding::Hybrid:
       f = encodedFilter<Encoding::Hybrid>(format);
+      break;
+    case Encoding::Csm:
+      f = encodedFilter<Encoding::Csm>(format);
+      break;
+    case Encoding::Sdag:
+      f = encodedFilter<Encoding::Sdag>(format);
       break;
   }
   const std::string name =

@@ -356,7 +356,7 @@ void setup(CLI::App& root) {
                 "print the data size from the levels alone, bake nothing, write nothing");
   cmd->add_option("--threads,-j", o->threads, "worker threads (default: all)");
   cmd->add_option("--encoding,-e", o->encodings,
-                  "also store these encodings (docs/encodings.md): comma list of flat, dfs, dfs-fast, rank, "
+                  "also store these encodings (docs/encodings.md): comma list of flat, dfs, dfs-fast, rank, csm, sdag, "
                   "hybrid, or all");
   cmd->add_flag("--json", o->json, "print the summary as JSON (keys in docs/cli.md)");
   cmd->add_flag("--blend-as-mask", o->blendAsMask, "bake glTF BLEND materials as MASK with their cutoff");

@@ -19,6 +19,10 @@ uint32_t encodingSectionId(Encoding e) noexcept {
       return sectionId("rank");
     case Encoding::Hybrid:
       return sectionId("hybr");
+    case Encoding::Csm:
+      return sectionId("csm ");
+    case Encoding::Sdag:
+      return sectionId("sdag");
   }
   return 0;
 }
@@ -30,7 +34,9 @@ std::optional<Encoding> sectionEncoding(uint32_t id) noexcept {
 }
 
 Status addEncodingSections(SommGeometry& g, std::span<const Encoding> encodings) {
-  for (Encoding e : encodings) {
+  for (Encoding requested : encodings) {
+    // dfs-fast is the dfs tree with another lookup: one "dfs " section serves both.
+    const Encoding e = EncodedArray::storedEncoding(requested);
     if (e == Encoding::Flat) continue;
     auto a = EncodedArray::build(g.flat, e);
     if (!a) return a.error();
@@ -53,10 +59,14 @@ Result<EncodedArray> loadEncoding(const SommGeometry& g, uint32_t geometryIndex,
     if (!a) return makeError(a.error().code, where + ": " + a.error().message);
     return a;
   }
+  // dfs-fast reads the dfs section (files from before the shared section may hold a "dfsf" copy).
+  const uint32_t ids[2] = {encodingSectionId(EncodedArray::storedEncoding(e)), encodingSectionId(e)};
+  for (uint32_t id : ids)
   for (const EncodedSection& s : g.extra) {
-    if (s.id != encodingSectionId(e)) continue;
+    if (s.id != id) continue;
     auto a = EncodedArray::parse(s.bytes, where + " encoding '" + encodingName(e) + "'");
     if (!a) return a;
+    a->setLookup(e);
     if (a->encoding() != e || a->triangleCount() != g.flat.indices.size())
       return makeError(ErrorCode::CorruptFile,
                        where + ": encoding '" + encodingName(e) +
@@ -117,6 +127,11 @@ Result<EncodingSizes> encodingSizes(const SommGeometry& g, uint32_t geometryInde
       s.stored.emplace_back(*e, a->byteSize());
     else
       s.invalid.emplace_back(*e, a.error().message);
+    // The dfs section also serves dfs-fast (same bytes, another lookup).
+    if (a && *e == Encoding::Dfs &&
+        std::none_of(g.extra.begin(), g.extra.end(),
+                     [](const EncodedSection& x) { return x.id == encodingSectionId(Encoding::DfsFast); }))
+      s.stored.emplace_back(Encoding::DfsFast, a->byteSize());
   }
   std::sort(s.stored.begin(), s.stored.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   if (compressed) {

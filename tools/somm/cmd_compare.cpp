@@ -26,13 +26,17 @@ namespace {
 using somm::Encoding;
 
 struct Options {
-  std::string scene;
+  std::vector<std::string> scenes;
+  std::string scene;  // the scenes' names, joined by ' + '
+
   std::string levels = "4,6,8,10,12";
   std::string formats = "2,4";
   bool json = false;
   std::string plot;
   uint32_t threads = 0;
   uint32_t lookups = 20000;
+  float texelsPerMicroTri = 0;  // > 0: each level is a cap of adaptive levels
+  bool sdagStats = false;
 };
 
 struct Row {
@@ -315,7 +319,7 @@ int run(const Options& o) {
     return kExitUsage;
   }
   somm::Scene scene;
-  if (o.scene.rfind("procedural:leaf-cards", 0) == 0) {
+  if (o.scene.rfind("procedural:leaf-cards", 0) == 0 && o.scenes.size() == 1) {
     uint64_t cards = 64;
     const std::string rest = o.scene.substr(std::string("procedural:leaf-cards").size());
     if (!rest.empty() &&
@@ -326,12 +330,20 @@ int run(const Options& o) {
     }
     scene = somm::makeLeafCardScene(uint32_t(cards), 1);
   } else {
-    auto s = somm::loadScene(o.scene);
-    if (!s) {
-      printError("compare", s.error().message);
-      return kExitFailure;
+    // Several files are one scene (e.g. every model of a game's foliage): geometries in file order.
+    for (const std::string& path : o.scenes) {
+      auto s = somm::loadScene(path);
+      if (!s) {
+        printError("compare", s.error().message);
+        return kExitFailure;
+      }
+      const uint32_t materialBase = uint32_t(scene.materials.size());
+      scene.materials.insert(scene.materials.end(), s->materials.begin(), s->materials.end());
+      for (somm::Geometry& g : s->geometries) {
+        g.material += materialBase;
+        scene.geometries.push_back(std::move(g));
+      }
     }
-    scene = std::move(*s);
   }
   std::vector<Row> rows;
   for (uint32_t states : formats)
@@ -341,6 +353,10 @@ int run(const Options& o) {
       row.states = states;
       somm::BakeOptions bo;
       bo.level = level;
+      if (o.texelsPerMicroTri > 0) {
+        bo.maxLevel = level;
+        bo.texelsPerMicroTri = o.texelsPerMicroTri;
+      }
       bo.format = states == 2 ? somm::Format::TwoState : somm::Format::FourState;
       bo.threads = o.threads;
       // Per geometry with the library baker, then one scene-wide array (identical maps stored once) as the
@@ -367,6 +383,60 @@ int run(const Options& o) {
           return kExitFailure;
         }
         row.bytes[size_t(e)] = a->byteSize();
+        if (e == Encoding::Sdag && o.sdagStats) {
+          // Bytes per DAG height (both formats) and the maps stored flat.
+          const auto& dir = a->directory();
+          std::string line = "sdag L" + std::to_string(level) + ":";
+          for (uint32_t h = 1; h <= 6; ++h) {
+            uint64_t b = 0, w = 0;
+            for (uint32_t f = 1; f <= 2; ++f) {
+              const uint32_t k = somm::encode::sdagRegion(somm::Format(f), h);
+              b += dir.base[k + 1] - dir.base[k];
+              w = std::max<uint64_t>(w, dir.width[k]);
+            }
+            line += " h" + std::to_string(h) + " " + std::to_string(b) + " B (ref " + std::to_string(w) + " bits)";
+          }
+          // Records and references per height (4-state regions), and how the leaf references spread.
+          {
+            const uint8_t* data = a->data().data();
+            std::vector<uint32_t> leafRefs;
+            for (uint32_t h = 2; h <= 6; ++h) {
+              const uint32_t k = somm::encode::sdagRegion(somm::Format::FourState, h);
+              uint64_t recs = 0, refs = 0;
+              const uint32_t w = dir.width[k - 1];
+              for (uint64_t off = dir.base[k]; off < dir.base[k + 1];) {
+                const uint8_t* p = data + off;
+                const uint32_t m = somm::encode::load16(p), n = somm::encode::popcount64(m);
+                if (h == 2)
+                  for (uint32_t i = 0; i < n; ++i) {
+                    const uint32_t r = somm::encode::getBits(p, 16 + 2 * (16 - n) + w * i, w);
+                    if (r >= leafRefs.size()) leafRefs.resize(r + 1);
+                    ++leafRefs[r];
+                  }
+                off += (16 + 2 * (16 - n) + w * n + 7) / 8;
+                ++recs;
+                refs += n;
+              }
+              line += " [h" + std::to_string(h) + ": " + std::to_string(recs) + " records, " + std::to_string(refs) +
+                      " refs]";
+            }
+            std::sort(leafRefs.rbegin(), leafRefs.rend());
+            uint64_t total = 0, top = 0, once = 0;
+            for (size_t i = 0; i < leafRefs.size(); ++i) {
+              total += leafRefs[i];
+              if (i < 256) top += leafRefs[i];
+              once += leafRefs[i] == 1;
+            }
+            line += " leaves " + std::to_string(leafRefs.size()) + ", refs " + std::to_string(total) + ", to top-256 " +
+                    std::to_string(top) + ", leaves referenced once " + std::to_string(once);
+          }
+          uint64_t flatMaps = 0;
+          for (const auto& d : a->maps()) flatMaps += d.kind == somm::MapKind::Flat;
+          line += ", other " + std::to_string(a->dataBytes() - dir.base[somm::encode::kSdagRegions]) + " B, " +
+                  std::to_string(flatMaps) + " maps flat, indices+descriptors " +
+                  std::to_string(a->byteSize() - a->dataBytes() - a->paddingBytes()) + " B\n";
+          std::fputs(line.c_str(), stderr);
+        }
         if (e == Encoding::Flat) row.xz = xzBytes(a->serialize());
         row.ns[size_t(e)] = lookupNsAny(*a, flat, q);
         if (row.ns[size_t(e)] < 0) {
@@ -468,7 +538,8 @@ void setup(CLI::App& root) {
                                       "rank, hybrid, csm, sdag) of the scene-wide array: exact bytes, ratios to "
                                       "flat, dfs, csm and xz -9, ns per lookup. SCENE is a "
                                       ".gltf/.glb/.obj file or procedural:leaf-cards[:N].");
-  cmd->add_option("scene", opts->scene, "scene file or procedural:leaf-cards[:N]")->required();
+  cmd->add_option("scene", opts->scenes, "scene file(s) (several files are one scene) or procedural:leaf-cards[:N]")
+      ->required();
   cmd->add_option("--levels", opts->levels, "comma list of subdivision levels 0..12 (default 4,6,8,10,12)");
   cmd->add_option("--formats", opts->formats, "comma list of formats: 2 and/or 4 states (default 2,4)");
   cmd->add_flag("--json", opts->json,
@@ -476,9 +547,16 @@ void setup(CLI::App& root) {
                 "ratio_to_flat}}");
   cmd->add_option("--plot", opts->plot, "write a PNG plot of the ratio to flat against the level");
   cmd->add_option("--threads", opts->threads, "bake threads (0 = all)");
+  cmd->add_option("--texels-per-microtri", opts->texelsPerMicroTri,
+                  "adaptive levels (as bake --texels-per-microtri): each --levels value is the cap --max-level");
+  cmd->add_flag("--sdag-stats", opts->sdagStats, "print the bytes of the sdag DAG per height to stderr");
   cmd->add_option("--lookups", opts->lookups,
                   "random (u, v) lookups timed per encoding, checked against flat (0 = do not time; default 20000)");
-  cmd->callback([opts] { somm::cli::setExitCode(run(*opts)); });
+  cmd->callback([opts] {
+    opts->scene.clear();
+    for (const std::string& p : opts->scenes) opts->scene += (opts->scene.empty() ? "" : " + ") + p;
+    somm::cli::setExitCode(run(*opts));
+  });
 }
 
 const somm::cli::Registration reg("compare", &setup);

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: MIT
 # somm — top-level driver. Every target installs missing Debian packages first (we run as root on Debian bookworm).
 BUILD      ?= build
 ASAN_BUILD ?= build-asan

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Baker throughput: micro-triangles per second, single-threaded and with all threads, on a procedural foliage
 // scene (random UV triangles over a leaf-atlas texture). Every run is checked byte-for-byte against a
 // single-threaded bake; the multi-threaded benchmark reports its speed-up over the single-threaded reference

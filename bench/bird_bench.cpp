@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // ns per index: ours scalar, ours batch, the paper's descent and the Vulkan reference, at levels 4, 8, 12.
 // Each benchmark checks its results against the reference before timing.
 #include <benchmark/benchmark.h>

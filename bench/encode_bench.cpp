@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // ns per micromap lookup from random (u, v) hits over every micromap of a procedural leaf-card set, for every
 // encoding at levels 4, 8 and 12 in both formats. Each benchmark checks all its answers against the flat OMM
 // array first and reports its time and size as ratios to flat measured in the same run (counters x_flat and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Rays/s per any-hit method on a procedural layered leaf-card scene (many overlapping alpha-tested quads), as
 // ratios to `texture` measured interleaved in the same run. Every method's image is checked against texture:
 // 4-state methods and the bitmask must be pixel-identical (SkipWithError otherwise); 2-state and opaque

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Fuzz target: the bird curve. For arbitrary float bit patterns and levels, every implementation (inline
 // scalar, the paper's descent, every batch ISA variant, the dispatched batch) equals the Vulkan reference
 // transcription, the index is in range, and the micro-triangle of the index contains the clamped, quantised

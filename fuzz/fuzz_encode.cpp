@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Fuzz target: every encoding's validating parser and lookups on arbitrary bytes (docs/encodings.md).
 // Mode by the first byte:
 //   0: EncodedArray::parse on the rest. A parsed array: every lookup (state, stateUV, stateAs<E>) stays in

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Fuzz target: the glTF 2.0 path of loadScene (tinygltf + our accessor, material, texture and node handling).
 // The first input byte picks .gltf (even) or .glb (odd); the rest is the file. The scratch directory holds
 // t.png and b.bin (64 bytes) for external URIs. Loaded scenes must satisfy the invariants in

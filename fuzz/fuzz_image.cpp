@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Fuzz target: image decoding (stb_image through the scene loader's decodeImage: PNG, JPEG, TGA, BMP, ...)
 // and the conversions to alpha and colour textures. Decoded sizes must be consistent, alphas in [0, 1], and a
 // small input must not allocate a huge image (run with -malloc_limit_mb, see fuzz_image.options).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Fuzz target: Micromap and OmmArray invariants. The input describes a sequence of micromaps (level, format,
 // fill and a list of set() operations); they are added to an OmmArrayBuilder and the finished array must
 // answer every lookup exactly as the maps do, dedupe identical maps, turn uniform maps into special indices,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Fuzz target: the OBJ/MTL path of loadScene (tinyobjloader + our material/texture handling). The input is
 // the OBJ text, optionally followed by a NUL byte and the text of m.mtl; the scratch directory also holds
 // t.png, so `mtllib m.mtl` and `map_d t.png` resolve. Loaded scenes must satisfy the invariants in

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Fuzz target: the .somm reader (parseSomm). Each input is parsed twice: as is (exercising the magic,
 // version, size and checksum checks) and with every checksum and the declared size recomputed, so that
 // mutations reach the structural validation behind the checksums. A parsed file must be internally valid:
@@ -32,8 +33,8 @@ void store64(uint8_t* p, uint64_t v) {
 }
 
 // Recomputes the header's declared size and checksum and every chunk checksum it can reach
-// (docs/somm-format.md: 32-byte header, then chunks of a 24-byte header {type, geometry, size u64, checksum
-// u64} + payload padded to 8).
+// (docs/somm-format.md: 32-byte header, then chunks of a 24-byte header {type, index, size u64, checksum
+// u64} + payload padded to 8; the same in versions 1 and 2).
 void fixChecksums(std::vector<uint8_t>& b) {
   if (b.size() < 32) return;
   store64(b.data() + 16, b.size());
@@ -50,18 +51,26 @@ void fixChecksums(std::vector<uint8_t>& b) {
 }
 
 void checkParsed(const somm::SommFile& f) {
-  for (const somm::SommGeometry& g : f.geometries) {
-    const somm::OmmArray& a = g.flat;
-    if (!somm::validateOmmArray(a, "fuzz").ok()) fail("a parsed geometry does not validate");
-    if (a.indices.size() != g.info.triangleCount) fail("triangle count differs from the index buffer");
+  const somm::SceneMicromaps& m = f.micromaps;
+  if (m.geometries.size() != f.geometries.size() || f.encodings.size() != m.arrays.size())
+    fail("geometry or encoding lists do not match the micromaps");
+  for (const somm::OmmArray& a : m.arrays)
+    if (!somm::validateOmmArray(a, "fuzz").ok()) fail("a parsed array does not validate");
+  for (uint32_t g = 0; g < f.geometries.size(); ++g) {
+    const somm::GeometryMicromaps& r = m.geometries[g];
+    if (r.array >= m.arrays.size()) fail("a geometry points past the arrays");
+    if (r.triangleCount != f.geometries[g].triangleCount) fail("triangle count differs from the placement");
+    if (uint64_t(r.firstTriangle) + r.triangleCount > m.arrays[r.array].indices.size())
+      fail("a geometry's range leaves its array");
     // Every lookup `somm query` can make: each triangle, its first and last micro-triangle, and a few (u, v).
-    for (uint32_t t = 0; t < a.indices.size(); ++t) {
-      const int32_t i = a.indices[t];
+    const somm::OmmArray& a = m.arrays[r.array];
+    for (uint32_t t = 0; t < r.triangleCount; ++t) {
+      const int32_t i = m.indices(g)[t];
       uint32_t level = 0;
       if (i >= 0) level = a.descriptors[size_t(i)].subdivisionLevel;
       volatile uint32_t sink = 0;
-      sink = sink + uint32_t(a.state(t, 0)) + uint32_t(a.state(t, somm::microTriangleCount(level) - 1));
-      sink = sink + uint32_t(a.stateUV(t, 0.3f, 0.6f)) + uint32_t(a.stateUV(t, 1.0f, 1.0f));
+      sink = sink + uint32_t(m.state(g, t, 0)) + uint32_t(m.state(g, t, somm::microTriangleCount(level) - 1));
+      sink = sink + uint32_t(m.stateUV(g, t, 0.3f, 0.6f)) + uint32_t(m.stateUV(g, t, 1.0f, 1.0f));
     }
   }
   const auto bytes = somm::serializeSomm(f);

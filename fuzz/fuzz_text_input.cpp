@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Fuzz target: the text input of `somm index` / `somm microtri` (and of every command reading 'u v' lines):
 // LineReader over a stream, nextToken, parseFloat, parseUInt. Checks: lines reassemble the input, tokens
 // never contain whitespace, parseFloat equals strtof on the same text, parseUInt equals a reference decimal

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: MIT
 """Regenerates the small generated seed corpora in fuzz/corpus/<target>/ (deterministic).
 
 Seeds derived from real files (the bundled scenes, baked .somm files) are made by fuzz/make_file_seeds.sh from a

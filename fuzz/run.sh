@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # Runs every built fuzz target for SECONDS seconds each: fuzz/run.sh BUILD_DIR SECONDS [TARGET...]
 # Seeds are read from fuzz/corpus/<target>/ (never written); new inputs go to BUILD_DIR/corpus/<target>/, crashes to
 # BUILD_DIR/crashes/. Prints libFuzzer's final stats per target and a summary line; exits non-zero if any target fails.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Shared by the scene fuzz targets: a private scratch directory holding the fuzzed file next to a small valid
 // texture and buffer (so that references resolve), and the invariants every loaded Scene must satisfy.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The Vulkan reference function, transcribed as the test oracle.
 //
 // Source: Vulkan specification, appendix for VK_EXT_opacity_micromap ("Reference Code"),

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Test helpers: OmmArrays and SommFiles built from random Micromaps (no baker needed).
 #pragma once
 
@@ -45,10 +46,17 @@ inline OmmArray randomOmmArray(uint32_t triangles, Format format, uint32_t minLe
   return b.finish();
 }
 
-inline SommGeometry randomGeometry(const std::string& name, uint32_t triangles, Format format,
+// One geometry as a bake produces it: metadata, its own OMM array and encodings of that array.
+struct TestGeometry {
+  GeometryInfo info;
+  OmmArray flat;
+  std::vector<EncodedSection> extra;
+};
+
+inline TestGeometry randomGeometry(const std::string& name, uint32_t triangles, Format format,
                                    uint32_t minLevel, uint32_t maxLevel, uint32_t seed,
                                    std::vector<Micromap>* mapsOut = nullptr) {
-  SommGeometry g;
+  TestGeometry g;
   g.info.name = name;
   g.info.material = name + "-material";
   g.info.triangleCount = triangles;
@@ -65,18 +73,56 @@ inline SommGeometry randomGeometry(const std::string& name, uint32_t triangles, 
   return g;
 }
 
-inline SommFile sampleFile(uint32_t trianglesPerGeometry = 40, uint32_t seed = 1) {
+enum class Layout { PerGeometry, Scene };
+
+// A file from per-geometry bakes: one array per geometry (with its encodings), or one scene-wide array (merged with
+// mergeToSceneArray; the encodings of all geometries, first occurrence of an id wins, go to the array).
+inline SommFile makeFile(std::vector<TestGeometry> geos, Layout layout) {
   SommFile f;
+  std::vector<OmmArray> arrays;
+  std::vector<std::vector<EncodedSection>> extras;
+  for (TestGeometry& g : geos) {
+    f.geometries.push_back(g.info);
+    arrays.push_back(std::move(g.flat));
+    extras.push_back(std::move(g.extra));
+  }
+  f.micromaps = perGeometryMicromaps(std::move(arrays));
+  if (layout == Layout::PerGeometry) {
+    f.encodings = std::move(extras);
+  } else {
+    f.micromaps = mergeToSceneArray(f.micromaps);
+    f.encodings.assign(1, {});
+    for (auto& extra : extras)
+      for (EncodedSection& e : extra) {
+        bool seen = false;
+        for (const EncodedSection& x : f.encodings[0]) seen = seen || x.id == e.id;
+        if (!seen) f.encodings[0].push_back(std::move(e));
+      }
+  }
+  return f;
+}
+
+// Three geometries (4-state leaves, 2-state bark, an empty one) with a few opaque encoding sections.
+inline SommFile sampleFile(uint32_t trianglesPerGeometry = 40, uint32_t seed = 1, Layout layout = Layout::Scene) {
+  std::vector<TestGeometry> g;
+  g.push_back(randomGeometry("leaves", trianglesPerGeometry, Format::FourState, 0, 3, seed));
+  g.push_back(randomGeometry("bark", trianglesPerGeometry, Format::TwoState, 1, 4, seed + 1));
+  g.push_back(randomGeometry("empty", 0, Format::FourState, 2, 2, seed + 2));
+  g[0].extra.push_back(EncodedSection{sectionId("dfs "), {1, 2, 3, 4, 5}});
+  g[0].extra.push_back(EncodedSection{sectionId("rank"), {}});
+  g[1].extra.push_back(EncodedSection{sectionId("hybr"), std::vector<uint8_t>(13, 0xab)});
+  SommFile f = makeFile(std::move(g), layout);
   f.sourcePath = "data/scene.gltf";
   f.toolVersion = "somm test";
   f.bakeOptions = {{"level", "3"}, {"format", "4"}, {"filter", "auto"}};
-  f.geometries.push_back(randomGeometry("leaves", trianglesPerGeometry, Format::FourState, 0, 3, seed));
-  f.geometries.push_back(randomGeometry("bark", trianglesPerGeometry, Format::TwoState, 1, 4, seed + 1));
-  f.geometries.push_back(randomGeometry("empty", 0, Format::FourState, 2, 2, seed + 2));
-  f.geometries[0].extra.push_back(EncodedSection{sectionId("dfs "), {1, 2, 3, 4, 5}});
-  f.geometries[0].extra.push_back(EncodedSection{sectionId("rank"), {}});
-  f.geometries[1].extra.push_back(EncodedSection{sectionId("hybr"), std::vector<uint8_t>(13, 0xab)});
   return f;
+}
+
+// One geometry in its own array.
+inline SommFile singleGeometryFile(TestGeometry g) {
+  std::vector<TestGeometry> v;
+  v.push_back(std::move(g));
+  return makeFile(std::move(v), Layout::PerGeometry);
 }
 
 }  // namespace somm::testing

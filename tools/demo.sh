@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
 # make demo: the main job on the bundled oak tree — bake with every encoding, the memory tables, the ray-tracing bench
 # table (every any-hit method on the same rays), and renders (texture, omm4-rank, state-overlay) as PNGs in out/.
 set -euo pipefail

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm — conservative opacity-micromap baking from alpha-tested textures (see docs/baking.md).
 //
 // For every triangle, each micro-triangle's UV triangle (in texel space, grown by a small safety margin) is

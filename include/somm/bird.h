@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm — the bird curve: barycentrics → micro-triangle index and back.
 //
 // (u, v) are the barycentric weights of triangle vertices 1 and 2. Level L in 0..12 splits the triangle into 4^L

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm — succinct micromap encodings with random access (see docs/encodings.md for the exact bit layouts).
 //
 // Per micromap ("map kind"):

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm — opacity micromaps in the Vulkan / DXR spec layout.
 #pragma once
 

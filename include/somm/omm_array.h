@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm — OMM arrays: byte-exact VkMicromapEXT / DXR OMM array build inputs.
 #pragma once
 

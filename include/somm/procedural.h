@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm — deterministic procedural alpha textures and scenes for tests and benchmarks (target somm_scene).
 // Every function is a pure function of its arguments: the same seed gives the same bytes on every platform
 // (own PRNG, no <random> distributions). Textures follow the AlphaTexture convention (row 0 is v = 0).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm — error handling. The library never prints and never exits: it returns Result<T>.
 #pragma once
 

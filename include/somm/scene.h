@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm — scenes loaded from glTF 2.0 (.gltf/.glb) and OBJ/MTL: what the baker and the ray tracer consume.
 #pragma once
 
@@ -55,6 +56,23 @@ struct Instance {
   std::array<float, 16> transform{1, 0, 0, 0, 0, 1, 0, 0,
                                   0, 0, 1, 0, 0, 0, 0, 1};  // column-major object→world
 };
+
+// True when every entry of the column-major transform is finite and its linear (upper-left 3×3) part is
+// invertible: |det| > 1e-12 × the product of its column lengths (a rank-deficient matrix computed in float
+// leaves a tiny non-zero determinant). Loaders and the tracer reject other instance transforms: a singular
+// one collapses the geometry onto a plane, a line or a point.
+inline bool isUsableTransform(const std::array<float, 16>& m) noexcept {
+  for (float x : m)
+    if (!(x - x == 0.0f)) return false;  // NaN or ±inf
+  const double a = m[0], b = m[4], c = m[8], d = m[1], e = m[5], f = m[9], g = m[2], h = m[6], i = m[10];
+  const double det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g);
+  double norms = 1.0;
+  for (int col = 0; col < 3; ++col) {
+    const double x = m[4 * col], y = m[4 * col + 1], z = m[4 * col + 2];
+    norms *= x * x + y * y + z * z;
+  }
+  return norms > 0 && det * det > 1e-24 * norms;
+}
 
 struct Camera {
   std::array<float, 3> eye{0, 0, 0}, target{0, 0, -1}, up{0, 1, 0};

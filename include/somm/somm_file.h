@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm — the .somm container: the baked OMM arrays of a scene, their metadata and further encodings, every
 // section checksummed (XXH3-64), written atomically. Byte layout: docs/somm-format.md.
 #pragma once
@@ -16,7 +17,9 @@
 
 namespace somm {
 
-inline constexpr uint32_t kSommFileVersion = 1;
+// The version serializeSomm writes. parseSomm also reads version 1 (one array per geometry, encodings per geometry),
+// converting it with perGeometryMicromaps.
+inline constexpr uint32_t kSommFileVersion = 2;
 
 // Four ASCII characters packed little-endian: sectionId("dfs ") == 'd' | 'f' << 8 | 's' << 16 | ' ' << 24.
 constexpr uint32_t sectionId(const char (&s)[5]) noexcept {
@@ -26,8 +29,9 @@ constexpr uint32_t sectionId(const char (&s)[5]) noexcept {
 // The id as text with trailing spaces trimmed ("dfs "), non-printable bytes as \xNN.
 std::string sectionIdName(uint32_t id);
 
-// An encoding of one geometry's micromaps besides the flat spec buffers (dfs, rank, ...). Stored and
-// checksummed opaquely; ids must be unique within a geometry.
+// An encoding of one OMM array's micromaps besides the flat spec buffers (dfs, rank, ...): it encodes the whole
+// array (all triangles of all geometries that share it). Stored and checksummed opaquely; ids must be unique
+// within an array.
 struct EncodedSection {
   uint32_t id = 0;
   std::vector<uint8_t> bytes;
@@ -47,27 +51,27 @@ struct GeometryBakeStats {
 struct GeometryInfo {
   std::string name;
   std::string material;
-  uint32_t triangleCount = 0;  // must equal flat.indices.size()
+  uint32_t triangleCount = 0;  // must equal SommFile::micromaps.geometries[g].triangleCount
   Format format = Format::FourState;
-  uint32_t minLevel = 0, maxLevel = 0;  // every descriptor's level lies in [minLevel, maxLevel] ⊆ [0, 12]
+  uint32_t minLevel = 0, maxLevel = 0;  // every descriptor the geometry uses has this format and a level in
+                                        // [minLevel, maxLevel] ⊆ [0, 12]
   float cutoff = 0.5f;
   Sampler sampler;  // filter and wrap modes used by the bake
   GeometryBakeStats stats;
   friend bool operator==(const GeometryInfo&, const GeometryInfo&) = default;
 };
 
-struct SommGeometry {
-  GeometryInfo info;
-  OmmArray flat;                      // the spec buffers (always present)
-  std::vector<EncodedSection> extra;  // further encodings, in file order
-};
-
 struct SommFile {
   std::string sourcePath;   // the scene the bake read
   std::string toolVersion;  // e.g. "somm 0.1.0"
   std::vector<std::pair<std::string, std::string>>
-      bakeOptions;  // the options used, in order ("level" → "8", ...)
-  std::vector<SommGeometry> geometries;
+      bakeOptions;                       // the options used, in order ("level" → "8", ...)
+  std::vector<GeometryInfo> geometries;  // per scene geometry, in scene order
+  // The micromaps: OMM arrays shared by geometries (micromaps.geometries[g] places geometry g in its array; one
+  // entry per geometries[g]). The default bake stores one scene-wide array, `--arrays geometry` one per geometry.
+  SceneMicromaps micromaps;
+  // encodings[a]: further encodings of micromaps.arrays[a], in file order (one entry per array, possibly empty).
+  std::vector<std::vector<EncodedSection>> encodings;
 };
 
 // Checks an OmmArray's internal consistency: descriptor levels ≤ 12 and formats 1/2, every micromap inside
@@ -84,6 +88,9 @@ Result<SommFile> parseSomm(std::span<const uint8_t> bytes, std::string_view name
 
 Status writeSommFile(const std::string& path, const SommFile& file);
 Result<SommFile> readSommFile(const std::string& path);
+// The scene's micromaps stored in a .somm file (readSommFile(path)->micromaps): what a ray tracer needs, with
+// SommFile::geometries[g] giving geometry g's format, cutoff and sampler when those matter.
+Result<SceneMicromaps> readSceneMicromaps(const std::string& path);
 
 // Writes `bytes` to `path` atomically: a temporary file in the same directory, fsync, rename, fsync of the
 // directory. On failure the temporary file is removed and an existing `path` is left untouched.

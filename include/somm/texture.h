@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm — alpha textures and the alpha test. This header is the single definition of "the alpha test" that the baker
 // must be conservative against and that the ray tracer's `texture` method evaluates.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm — CPU ray tracing with opacity micromaps on Embree 3: every any-hit method of the paper side by side.
 //
 // A TraceWorld is a loaded Scene flattened into world space (every instance's vertices transformed once) and
@@ -64,6 +65,10 @@ struct TraceCounters {
   uint64_t filterCalls = 0;      // filter function invocations (per ray and candidate hit)
   uint64_t textureTests = 0;     // alpha texture evaluations
   uint64_t micromapLookups = 0;  // micromap / bitmask state reads
+  uint64_t primaryHits = 0;      // primary rays that hit geometry
+  // Pixels at least one of whose rays ran a filter (a candidate hit on alpha-tested geometry). For `texture`
+  // this is the number of pixels an exactness check actually tests; 0 means the comparison is vacuous.
+  uint64_t alphaTestedPixels = 0;
   uint64_t rays() const noexcept { return primaryRays + shadowRays; }
   TraceCounters& operator+=(const TraceCounters& o) noexcept;
   friend bool operator==(const TraceCounters&, const TraceCounters&) = default;

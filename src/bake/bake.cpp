@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm — conservative OMM baking. Algorithm and conservativeness argument: docs/baking.md.
 #include "somm/bake.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "somm/encode.h"
 
 #include <algorithm>

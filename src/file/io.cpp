@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Whole-file reading and atomic writing (temporary file + fsync + rename).
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -117,6 +118,12 @@ Result<SommFile> readSommFile(const std::string& path) {
   auto bytes = readWholeFile(path);
   if (!bytes) return bytes.error();
   return parseSomm(*bytes, path);
+}
+
+Result<SceneMicromaps> readSceneMicromaps(const std::string& path) {
+  auto file = readSommFile(path);
+  if (!file) return file.error();
+  return std::move(file->micromaps);
 }
 
 }  // namespace somm

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // The .somm container (docs/somm-format.md).
 #include "somm/somm_file.h"
 
@@ -29,7 +30,6 @@ constexpr uint32_t kFlat = sectionId("FLAT");
 constexpr uint32_t kEncd = sectionId("ENCD");
 constexpr uint32_t kEnd = sectionId("END ");
 
-constexpr size_t kGeomFixedBytes = 4 + 8 + 4 + 4 + 3 * 8;  // after the two strings
 constexpr size_t kFlatHeaderBytes = 32;
 
 // ---- little-endian writing ----
@@ -99,11 +99,10 @@ std::string hex(uint64_t v) {
 
 // ---- checks shared by the writer and the reader ----
 
-Status checkGeometry(const SommGeometry& g, const std::string& what) {
+Status checkInfo(const GeometryInfo& in, const std::string& what) {
   auto fail = [&](ErrorCode code, const std::string& m) -> Status {
     return makeError(code, what + ": " + m);
   };
-  const GeometryInfo& in = g.info;
   if (!isValidFormat(uint32_t(in.format)))
     return fail(ErrorCode::CorruptFile, "format " + std::to_string(uint32_t(in.format)) + " is not 1 or 2");
   if (in.maxLevel > kMaxLevel)
@@ -125,27 +124,85 @@ Status checkGeometry(const SommGeometry& g, const std::string& what) {
     return fail(ErrorCode::CorruptFile, "invalid-UV triangle count exceeds the triangle count");
   if (in.name.size() > kMaxStringBytes || in.material.size() > kMaxStringBytes)
     return fail(ErrorCode::LimitExceeded, "name longer than 65536 bytes");
-  if (g.flat.indices.size() != in.triangleCount)
-    return fail(ErrorCode::CorruptFile, "triangle count " + std::to_string(in.triangleCount) +
-                                            " but the index buffer has " +
-                                            std::to_string(g.flat.indices.size()) + " entries");
-  if (Status s = validateOmmArray(g.flat, what); !s) return s;
-  for (size_t i = 0; i < g.flat.descriptors.size(); ++i) {
-    const TriangleDescriptor& d = g.flat.descriptors[i];
+  return Ok{};
+}
+
+// Every descriptor geometry g uses (through its range of the array's index buffer) has the geometry's format and a
+// level in its range. Call after validateOmmArray(a) and with the range inside a.indices.
+Status checkGeometryMaps(const GeometryInfo& in, const OmmArray& a, const GeometryMicromaps& r,
+                         const std::string& what) {
+  for (uint32_t t = 0; t < r.triangleCount; ++t) {
+    const int32_t i = a.indices[size_t(r.firstTriangle) + t];
+    if (isSpecialIndex(i)) continue;
+    const TriangleDescriptor& d = a.descriptors[size_t(i)];
     if (d.format != uint16_t(in.format))
-      return fail(ErrorCode::CorruptFile, "descriptor " + std::to_string(i) + " has format " +
-                                              std::to_string(d.format) + " but the geometry is format " +
-                                              std::to_string(uint32_t(in.format)));
+      return makeError(ErrorCode::CorruptFile, what + ": triangle " + std::to_string(t) + " uses descriptor " +
+                                                   std::to_string(i) + " of format " + std::to_string(d.format) +
+                                                   " but the geometry is format " +
+                                                   std::to_string(uint32_t(in.format)));
     if (d.subdivisionLevel < in.minLevel || d.subdivisionLevel > in.maxLevel)
-      return fail(ErrorCode::CorruptFile, "descriptor " + std::to_string(i) + " has level " +
-                                              std::to_string(d.subdivisionLevel) +
-                                              " outside the level range " + std::to_string(in.minLevel) +
-                                              ".." + std::to_string(in.maxLevel));
+      return makeError(ErrorCode::CorruptFile,
+                       what + ": triangle " + std::to_string(t) + " uses descriptor " + std::to_string(i) +
+                           " of level " + std::to_string(d.subdivisionLevel) + " outside the level range " +
+                           std::to_string(in.minLevel) + ".." + std::to_string(in.maxLevel));
   }
-  for (size_t i = 0; i < g.extra.size(); ++i)
+  return Ok{};
+}
+
+Status checkEncodings(const std::vector<EncodedSection>& extra, const std::string& what) {
+  for (size_t i = 0; i < extra.size(); ++i)
     for (size_t j = 0; j < i; ++j)
-      if (g.extra[i].id == g.extra[j].id)
-        return fail(ErrorCode::CorruptFile, "encoding '" + sectionIdName(g.extra[i].id) + "' stored twice");
+      if (extra[i].id == extra[j].id)
+        return makeError(ErrorCode::CorruptFile,
+                         what + ": encoding '" + sectionIdName(extra[i].id) + "' stored twice");
+  return Ok{};
+}
+
+// The whole file as the writer sees it (the reader checks the same rules chunk by chunk).
+Status checkFile(const SommFile& f) {
+  const SceneMicromaps& m = f.micromaps;
+  if (m.geometries.size() != f.geometries.size())
+    return makeError(ErrorCode::InvalidArgument,
+                     std::to_string(f.geometries.size()) + " geometries but micromaps for " +
+                         std::to_string(m.geometries.size()));
+  if (f.encodings.size() != m.arrays.size())
+    return makeError(ErrorCode::InvalidArgument, std::to_string(m.arrays.size()) + " arrays but encodings for " +
+                                                     std::to_string(f.encodings.size()));
+  if (f.geometries.size() > 0xffffffffull || m.arrays.size() > 0xfffffffeull)
+    return makeError(ErrorCode::LimitExceeded, "too many geometries or arrays");
+  std::vector<uint64_t> next(m.arrays.size(), 0);
+  for (size_t g = 0; g < f.geometries.size(); ++g) {
+    const std::string what = "geometry " + std::to_string(g);
+    const GeometryInfo& in = f.geometries[g];
+    const GeometryMicromaps& r = m.geometries[g];
+    if (Status s = checkInfo(in, what); !s) return s;
+    if (r.triangleCount != in.triangleCount)
+      return makeError(ErrorCode::CorruptFile, what + ": triangle count " + std::to_string(in.triangleCount) +
+                                                   " but its micromaps cover " + std::to_string(r.triangleCount));
+    if (r.array >= m.arrays.size())
+      return makeError(ErrorCode::CorruptFile, what + ": array " + std::to_string(r.array) + " does not exist (" +
+                                                   std::to_string(m.arrays.size()) + " arrays)");
+    if (r.firstTriangle != next[r.array])
+      return makeError(ErrorCode::CorruptFile,
+                       what + ": starts at triangle " + std::to_string(r.firstTriangle) + " of array " +
+                           std::to_string(r.array) + ", expected " + std::to_string(next[r.array]) +
+                           " (the geometries of an array tile its index buffer in geometry order)");
+    next[r.array] += r.triangleCount;
+  }
+  for (size_t a = 0; a < m.arrays.size(); ++a) {
+    const std::string what = "array " + std::to_string(a);
+    if (Status s = validateOmmArray(m.arrays[a], what); !s) return s;
+    if (next[a] != m.arrays[a].indices.size())
+      return makeError(ErrorCode::CorruptFile, what + ": its geometries cover " + std::to_string(next[a]) +
+                                                   " triangles but its index buffer has " +
+                                                   std::to_string(m.arrays[a].indices.size()));
+    if (Status s = checkEncodings(f.encodings[a], what); !s) return s;
+  }
+  for (size_t g = 0; g < f.geometries.size(); ++g)
+    if (Status s = checkGeometryMaps(f.geometries[g], m.arrays[m.geometries[g].array], m.geometries[g],
+                                     "geometry " + std::to_string(g));
+        !s)
+      return s;
   return Ok{};
 }
 
@@ -188,9 +245,11 @@ class Reader {
   size_t pos_ = 0;
 };
 
-std::string describeChunk(size_t ordinal, uint32_t type, uint32_t geometry, size_t offset) {
+// "chunk 3 'FLAT' of array 0 at offset 184": FLAT and ENCD chunks belong to an array (version 1: a geometry).
+std::string describeChunk(size_t ordinal, uint32_t type, uint32_t index, size_t offset, bool v1) {
   std::string s = "chunk " + std::to_string(ordinal) + " '" + sectionIdName(type) + "'";
-  if (geometry != kNoGeometry) s += " of geometry " + std::to_string(geometry);
+  const bool ofArray = !v1 && (type == kFlat || type == kEncd);
+  if (index != kNoGeometry) s += (ofArray ? " of array " : " of geometry ") + std::to_string(index);
   return s + " at offset " + std::to_string(offset);
 }
 
@@ -256,11 +315,15 @@ Status parseFlat(const uint8_t* p, size_t n, OmmArray& a, const std::string& wha
   return Ok{};
 }
 
-Status parseGeom(const uint8_t* p, size_t n, GeometryInfo& g, const std::string& what) {
+// A GEOM payload; `placement` (version 2) also reads the geometry's array and first triangle.
+Status parseGeom(const uint8_t* p, size_t n, GeometryInfo& g, GeometryMicromaps* placement,
+                 const std::string& what) {
   Reader r(p, n);
   uint8_t format, minLevel, maxLevel, filter, wrapS, wrapT, reserved8[2];
   uint32_t reserved32;
-  if (!r.str(g.name) || !r.str(g.material) || !r.u32(g.triangleCount) || !r.u8(format) || !r.u8(minLevel) ||
+  if (!r.str(g.name) || !r.str(g.material) || !r.u32(g.triangleCount) ||
+      (placement && (!r.u32(placement->array) || !r.u32(placement->firstTriangle))) || !r.u8(format) ||
+      !r.u8(minLevel) ||
       !r.u8(maxLevel) || !r.u8(filter) || !r.u8(wrapS) || !r.u8(wrapT) || !r.u8(reserved8[0]) ||
       !r.u8(reserved8[1]) || !r.f32(g.cutoff) || !r.u32(reserved32) || !r.u64(g.stats.microTriangles) ||
       !r.u64(g.stats.unknownMicroTriangles) || !r.u64(g.stats.invalidUvTriangles))
@@ -276,6 +339,7 @@ Status parseGeom(const uint8_t* p, size_t n, GeometryInfo& g, const std::string&
   g.sampler.filter = Filter(filter);
   g.sampler.wrapS = Wrap(wrapS);
   g.sampler.wrapT = Wrap(wrapT);
+  if (placement) placement->triangleCount = g.triangleCount;
   return Ok{};
 }
 
@@ -337,7 +401,6 @@ Status validateOmmArray(const OmmArray& a, std::string_view whatView) {
 }
 
 Result<std::vector<uint8_t>> serializeSomm(const SommFile& f) {
-  if (f.geometries.size() > 0xffffffffull) return makeError(ErrorCode::LimitExceeded, "too many geometries");
   auto longString = [](const std::string& s) { return s.size() > kMaxStringBytes; };
   if (longString(f.sourcePath) || longString(f.toolVersion))
     return makeError(ErrorCode::LimitExceeded, "source path or tool version longer than 65536 bytes");
@@ -345,8 +408,7 @@ Result<std::vector<uint8_t>> serializeSomm(const SommFile& f) {
     if (longString(k) || longString(v))
       return makeError(ErrorCode::LimitExceeded,
                        "bake option '" + k.substr(0, 40) + "' longer than 65536 bytes");
-  for (size_t g = 0; g < f.geometries.size(); ++g)
-    if (Status s = checkGeometry(f.geometries[g], "geometry " + std::to_string(g)); !s) return s.error();
+  if (Status s = checkFile(f); !s) return s.error();
 
   Writer w;
   w.bytes(kMagic);
@@ -357,6 +419,7 @@ Result<std::vector<uint8_t>> serializeSomm(const SommFile& f) {
 
   Writer meta;
   meta.u32(uint32_t(f.geometries.size()));
+  meta.u32(uint32_t(f.micromaps.arrays.size()));
   meta.str(f.sourcePath);
   meta.str(f.toolVersion);
   meta.u32(uint32_t(f.bakeOptions.size()));
@@ -367,12 +430,14 @@ Result<std::vector<uint8_t>> serializeSomm(const SommFile& f) {
   putChunk(w, kMeta, kNoGeometry, meta.out);
 
   for (size_t gi = 0; gi < f.geometries.size(); ++gi) {
-    const SommGeometry& g = f.geometries[gi];
-    const GeometryInfo& in = g.info;
+    const GeometryInfo& in = f.geometries[gi];
+    const GeometryMicromaps& r = f.micromaps.geometries[gi];
     Writer geom;
     geom.str(in.name);
     geom.str(in.material);
     geom.u32(in.triangleCount);
+    geom.u32(r.array);
+    geom.u32(r.firstTriangle);
     geom.u8(uint8_t(in.format));
     geom.u8(uint8_t(in.minLevel));
     geom.u8(uint8_t(in.maxLevel));
@@ -387,8 +452,10 @@ Result<std::vector<uint8_t>> serializeSomm(const SommFile& f) {
     geom.u64(in.stats.unknownMicroTriangles);
     geom.u64(in.stats.invalidUvTriangles);
     putChunk(w, kGeom, uint32_t(gi), geom.out);
+  }
 
-    const OmmArray& a = g.flat;
+  for (size_t ai = 0; ai < f.micromaps.arrays.size(); ++ai) {
+    const OmmArray& a = f.micromaps.arrays[ai];
     Writer flat;
     flat.out.reserve(kFlatHeaderBytes + a.descriptors.size() * 8 + a.indices.size() * 4 + a.data.size() +
                      256);
@@ -408,15 +475,15 @@ Result<std::vector<uint8_t>> serializeSomm(const SommFile& f) {
       }
     flat.bytes(a.indexBufferBytes());
     flat.bytes(a.data);
-    putChunk(w, kFlat, uint32_t(gi), flat.out);
+    putChunk(w, kFlat, uint32_t(ai), flat.out);
 
-    for (const EncodedSection& e : g.extra) {
+    for (const EncodedSection& e : f.encodings[ai]) {
       Writer enc;
       enc.out.reserve(8 + e.bytes.size());
       enc.u32(e.id);
       enc.u32(0);
       enc.bytes(e.bytes);
-      putChunk(w, kEncd, uint32_t(gi), enc.out);
+      putChunk(w, kEncd, uint32_t(ai), enc.out);
     }
   }
   putChunk(w, kEnd, kNoGeometry, {});
@@ -439,10 +506,11 @@ Result<SommFile> parseSomm(std::span<const uint8_t> bytes, std::string_view name
     return err(ErrorCode::CorruptFile,
                "truncated .somm file: " + std::to_string(n) + " bytes, header needs 32");
   const uint32_t version = loadU32(p + 8);
-  if (version != kSommFileVersion)
+  if (version != 1 && version != kSommFileVersion)
     return err(ErrorCode::UnsupportedFormat, ".somm version " + std::to_string(version) +
-                                                 " is not supported (this build reads version " +
+                                                 " is not supported (this build reads versions 1 and " +
                                                  std::to_string(kSommFileVersion) + ")");
+  const bool v1 = version == 1;
   if (XXH3_64bits(p, 24) != loadU64(p + 24)) return err(ErrorCode::CorruptFile, "header checksum mismatch");
   if (const uint32_t flags = loadU32(p + 12); flags != 0)
     return err(ErrorCode::UnsupportedFormat, "unknown header flags 0x" + hex(flags).substr(8));
@@ -456,20 +524,26 @@ Result<SommFile> parseSomm(std::span<const uint8_t> bytes, std::string_view name
                                            std::to_string(declared));
 
   SommFile out;
-  uint32_t geometryCount = 0;
+  uint32_t geometryCount = 0, arrayCount = 0;
   size_t off = kHeaderBytes;
   size_t ordinal = 0;
   bool ended = false;
-  bool flatSeen = false;
-  // Expected sequence: META, (GEOM FLAT ENCD*)^geometryCount, END.
+  bool flatSeen = false;  // the FLAT chunk of the current geometry (v1) or array (v2) has been read
+  // Version 1: one array per geometry, its encodings with it.
+  std::vector<OmmArray> v1Arrays;
+  // Version 2: triangles placed so far per array, and each array's geometries.
+  std::vector<uint64_t> next;
+  std::vector<std::vector<uint32_t>> byArray;
+  // Expected sequence — v1: META, (GEOM FLAT ENCD*)^geometryCount, END;
+  //                     v2: META, GEOM^geometryCount, (FLAT ENCD*)^arrayCount, END.
   while (!ended) {
     if (n - off < kChunkHeaderBytes)
       return err(ErrorCode::CorruptFile, "truncated: chunk " + std::to_string(ordinal) + " at offset " +
                                              std::to_string(off) + " has no room for its 24-byte header");
     const uint8_t* h = p + off;
-    const uint32_t type = loadU32(h), geometry = loadU32(h + 4);
+    const uint32_t type = loadU32(h), index = loadU32(h + 4);
     const uint64_t size = loadU64(h + 8), sum = loadU64(h + 16);
-    const std::string what = name + ": " + describeChunk(ordinal, type, geometry, off);
+    const std::string what = name + ": " + describeChunk(ordinal, type, index, off, v1);
     auto cerr = [&](ErrorCode code, const std::string& m) -> Error {
       return makeError(code, what + ": " + m);
     };
@@ -487,19 +561,24 @@ Result<SommFile> parseSomm(std::span<const uint8_t> bytes, std::string_view name
       if (payload[i] != 0) return cerr(ErrorCode::CorruptFile, "non-zero padding");
 
     const size_t geomDone = out.geometries.size();
+    const size_t arraysDone = v1 ? 0 : out.micromaps.arrays.size();
     if (ordinal == 0) {
-      if (type != kMeta || geometry != kNoGeometry)
+      if (type != kMeta || index != kNoGeometry)
         return cerr(ErrorCode::CorruptFile, "the first chunk must be 'META' without a geometry");
       Reader r(payload, size_t(size));
       uint32_t options;
-      if (!r.u32(geometryCount) || !r.str(out.sourcePath) || !r.str(out.toolVersion) || !r.u32(options))
+      if (!r.u32(geometryCount) || (!v1 && !r.u32(arrayCount)) || !r.str(out.sourcePath) ||
+          !r.str(out.toolVersion) || !r.u32(options))
         return cerr(ErrorCode::CorruptFile, "payload too short or a string length out of range");
-      // Each option needs at least 8 bytes, each geometry at least two 24-byte chunk headers.
+      // Each option needs at least 8 bytes, each geometry (v1: two) and each array a 24-byte chunk header.
       if (options > r.remaining() / 8)
         return cerr(ErrorCode::CorruptFile,
                     std::to_string(options) + " bake options cannot fit in the payload");
-      if (geometryCount > (n - off) / (2 * kChunkHeaderBytes))
+      if (geometryCount > (n - off) / ((v1 ? 2 : 1) * kChunkHeaderBytes))
         return cerr(ErrorCode::CorruptFile, std::to_string(geometryCount) + " geometries cannot fit in a " +
+                                                std::to_string(n) + "-byte file");
+      if (arrayCount > (n - off) / kChunkHeaderBytes)
+        return cerr(ErrorCode::CorruptFile, std::to_string(arrayCount) + " arrays cannot fit in a " +
                                                 std::to_string(n) + "-byte file");
       out.bakeOptions.resize(options);
       for (auto& [k, v] : out.bakeOptions)
@@ -508,52 +587,121 @@ Result<SommFile> parseSomm(std::span<const uint8_t> bytes, std::string_view name
       if (r.remaining() != 0)
         return cerr(ErrorCode::CorruptFile, std::to_string(r.remaining()) + " unexpected trailing bytes");
       out.geometries.reserve(geometryCount);
+      out.micromaps.geometries.reserve(geometryCount);
+      if (v1) {
+        v1Arrays.reserve(geometryCount);
+        out.encodings.reserve(geometryCount);
+      } else {
+        out.micromaps.arrays.reserve(arrayCount);
+        out.encodings.reserve(arrayCount);
+        next.assign(arrayCount, 0);
+        byArray.resize(arrayCount);
+      }
     } else if (type == kGeom) {
       if (geomDone == geometryCount)
         return cerr(ErrorCode::CorruptFile,
                     "more geometries than the " + std::to_string(geometryCount) + " declared");
-      if (geomDone > 0 && !flatSeen)
+      if (v1 && geomDone > 0 && !flatSeen)
         return cerr(ErrorCode::CorruptFile,
                     "geometry " + std::to_string(geomDone - 1) + " has no 'FLAT' chunk");
-      if (geometry != geomDone)
-        return cerr(ErrorCode::CorruptFile, "expected geometry " + std::to_string(geomDone));
-      SommGeometry g;
-      if (Status s = parseGeom(payload, size_t(size), g.info, what); !s) return s.error();
-      out.geometries.push_back(std::move(g));
+      if (!v1 && arraysDone > 0)
+        return cerr(ErrorCode::CorruptFile, "geometries must precede the arrays");
+      if (index != geomDone) return cerr(ErrorCode::CorruptFile, "expected geometry " + std::to_string(geomDone));
+      GeometryInfo info;
+      GeometryMicromaps place;
+      if (Status s = parseGeom(payload, size_t(size), info, v1 ? nullptr : &place, what); !s) return s.error();
+      if (Status s = checkInfo(info, what); !s) return s.error();
+      if (!v1) {
+        if (place.array >= arrayCount)
+          return cerr(ErrorCode::CorruptFile, "array " + std::to_string(place.array) + " does not exist (" +
+                                                  std::to_string(arrayCount) + " arrays)");
+        if (place.firstTriangle != next[place.array])
+          return cerr(ErrorCode::CorruptFile,
+                      "starts at triangle " + std::to_string(place.firstTriangle) + " of array " +
+                          std::to_string(place.array) + ", expected " + std::to_string(next[place.array]) +
+                          " (the geometries of an array tile its index buffer in geometry order)");
+        next[place.array] += place.triangleCount;
+        if (next[place.array] > 0xffffffffull)
+          return cerr(ErrorCode::CorruptFile,
+                      "array " + std::to_string(place.array) + " would exceed 2^32 - 1 triangles");
+        byArray[place.array].push_back(uint32_t(geomDone));
+      } else {
+        place = GeometryMicromaps{uint32_t(geomDone), 0, info.triangleCount};
+      }
+      out.geometries.push_back(std::move(info));
+      out.micromaps.geometries.push_back(place);
       flatSeen = false;
     } else if (type == kFlat) {
-      if (geomDone == 0 || geometry != geomDone - 1)
-        return cerr(ErrorCode::CorruptFile, "does not follow the 'GEOM' chunk of its geometry");
-      if (flatSeen) return cerr(ErrorCode::CorruptFile, "a second 'FLAT' chunk for the geometry");
-      SommGeometry& g = out.geometries.back();
-      if (Status s = parseFlat(payload, size_t(size), g.flat, what); !s) return s.error();
-      if (Status s = checkGeometry(g, what); !s) return s.error();
+      OmmArray a;
+      if (v1) {
+        if (geomDone == 0 || index != geomDone - 1)
+          return cerr(ErrorCode::CorruptFile, "does not follow the 'GEOM' chunk of its geometry");
+        if (flatSeen) return cerr(ErrorCode::CorruptFile, "a second 'FLAT' chunk for the geometry");
+      } else {
+        if (geomDone != geometryCount)
+          return cerr(ErrorCode::CorruptFile, "only " + std::to_string(geomDone) + " of " +
+                                                  std::to_string(geometryCount) +
+                                                  " declared geometries precede the arrays");
+        if (arraysDone == arrayCount)
+          return cerr(ErrorCode::CorruptFile,
+                      "more arrays than the " + std::to_string(arrayCount) + " declared");
+        if (index != arraysDone) return cerr(ErrorCode::CorruptFile, "expected array " + std::to_string(arraysDone));
+      }
+      if (Status s = parseFlat(payload, size_t(size), a, what); !s) return s.error();
+      if (Status s = validateOmmArray(a, what); !s) return s.error();
+      if (v1) {
+        const GeometryInfo& in = out.geometries.back();
+        if (a.indices.size() != in.triangleCount)
+          return cerr(ErrorCode::CorruptFile, "triangle count " + std::to_string(in.triangleCount) +
+                                                  " but the index buffer has " +
+                                                  std::to_string(a.indices.size()) + " entries");
+        if (Status s = checkGeometryMaps(in, a, out.micromaps.geometries.back(), what); !s) return s.error();
+        v1Arrays.push_back(std::move(a));
+      } else {
+        if (a.indices.size() != next[arraysDone])
+          return cerr(ErrorCode::CorruptFile, "its geometries cover " + std::to_string(next[arraysDone]) +
+                                                  " triangles but its index buffer has " +
+                                                  std::to_string(a.indices.size()));
+        for (uint32_t g : byArray[arraysDone])
+          if (Status s = checkGeometryMaps(out.geometries[g], a, out.micromaps.geometries[g],
+                                           what + ": geometry " + std::to_string(g));
+              !s)
+            return s.error();
+        out.micromaps.arrays.push_back(std::move(a));
+      }
+      out.encodings.emplace_back();
       flatSeen = true;
     } else if (type == kEncd) {
-      if (geomDone == 0 || geometry != geomDone - 1 || !flatSeen)
-        return cerr(ErrorCode::CorruptFile, "does not follow the 'FLAT' chunk of its geometry");
-      SommGeometry& g = out.geometries.back();
+      const bool follows = v1 ? geomDone > 0 && index == geomDone - 1 && flatSeen
+                              : arraysDone > 0 && index == arraysDone - 1;
+      if (!follows)
+        return cerr(ErrorCode::CorruptFile,
+                    std::string("does not follow the 'FLAT' chunk of its ") + (v1 ? "geometry" : "array"));
+      std::vector<EncodedSection>& extra = out.encodings.back();
       Reader r(payload, size_t(size));
       EncodedSection e;
       uint32_t reserved;
       if (!r.u32(e.id) || !r.u32(reserved))
         return cerr(ErrorCode::CorruptFile, "payload shorter than 8 bytes");
       if (reserved != 0) return cerr(ErrorCode::CorruptFile, "reserved field is not 0");
-      for (const EncodedSection& x : g.extra)
+      for (const EncodedSection& x : extra)
         if (x.id == e.id)
           return cerr(ErrorCode::CorruptFile, "encoding '" + sectionIdName(e.id) + "' stored twice");
       e.bytes.assign(r.here(), r.here() + r.remaining());
-      g.extra.push_back(std::move(e));
+      extra.push_back(std::move(e));
     } else if (type == kEnd) {
-      if (geometry != kNoGeometry || size != 0)
+      if (index != kNoGeometry || size != 0)
         return cerr(ErrorCode::CorruptFile, "'END' must be empty and without a geometry");
-      if (geomDone > 0 && !flatSeen)
+      if (v1 && geomDone > 0 && !flatSeen)
         return cerr(ErrorCode::CorruptFile,
                     "geometry " + std::to_string(geomDone - 1) + " has no 'FLAT' chunk");
       if (geomDone != geometryCount)
         return cerr(ErrorCode::CorruptFile, "only " + std::to_string(geomDone) + " of " +
                                                 std::to_string(geometryCount) +
                                                 " declared geometries present");
+      if (!v1 && arraysDone != arrayCount)
+        return cerr(ErrorCode::CorruptFile, "only " + std::to_string(arraysDone) + " of " +
+                                                std::to_string(arrayCount) + " declared arrays present");
       ended = true;
     } else if (type == kMeta) {
       return cerr(ErrorCode::CorruptFile, "a second 'META' chunk");
@@ -565,6 +713,10 @@ Result<SommFile> parseSomm(std::span<const uint8_t> bytes, std::string_view name
   }
   if (off != n)
     return err(ErrorCode::CorruptFile, std::to_string(n - off) + " unexpected bytes after the 'END' chunk");
+  if (v1) {
+    // One array per geometry (GeometryMicromaps{g, 0, triangleCount}, as placed above).
+    out.micromaps.arrays = std::move(v1Arrays);
+  }
   return out;
 }
 

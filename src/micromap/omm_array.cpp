@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "somm/omm_array.h"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm — writing a Scene as a self-contained .glb (for procedural scenes on disk: CLI tests, demos,
 // benchmarks).
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm — glTF 2.0 (.gltf / .glb) loading via tinygltf. tinygltf parses the JSON and the buffers; everything
 // else (accessor bounds, images, node hierarchy) is validated and converted here, so malformed files give
 // errors, not crashes.
@@ -564,10 +565,16 @@ Status GltfLoader::loadInstances() {
           return fail(ErrorCode::CorruptFile, "node " + std::to_string(node) + ": mesh " +
                                                   std::to_string(n.mesh) + " does not exist");
         const size_t prims = model_.meshes[size_t(n.mesh)].primitives.size();
+        std::array<float, 16> transform;
+        for (int k = 0; k < 16; ++k) transform[size_t(k)] = narrow(world[size_t(k)]);
+        if (prims > 0 && !isUsableTransform(transform))
+          return fail(ErrorCode::CorruptFile,
+                      "node " + std::to_string(node) + (n.name.empty() ? "" : " '" + n.name + "'") +
+                          ": its world transform is singular or not finite (the mesh would collapse)");
         for (size_t p = 0; p < prims; ++p) {
           Instance inst;
           inst.geometry = firstGeometry_[size_t(n.mesh)] + uint32_t(p);
-          for (int k = 0; k < 16; ++k) inst.transform[size_t(k)] = narrow(world[size_t(k)]);
+          inst.transform = transform;
           scene_.instances.push_back(inst);
         }
       }

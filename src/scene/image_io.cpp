@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm — image decoding via stb_image (implementation in the Debian libstb).
 #include "image_io.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm — image decoding for the scene loaders (stb_image): any of PNG/JPEG/TGA/BMP, 8 or 16 bit, 1–4
 // channels.
 #pragma once

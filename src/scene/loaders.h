@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm — internal entry points of the scene loaders.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm — Wavefront OBJ/MTL loading via tinyobjloader.
 //
 // Geometries: one per (shape, material) in order of first appearance, triangles in file order, polygons
@@ -264,7 +265,11 @@ Result<Scene> ObjLoader::run() {
   }
   if (degenerate)
     scene_.warnings.push_back(std::to_string(degenerate) + " face(s) with fewer than 3 vertices skipped");
-  for (uint32_t g = 0; g < scene_.geometries.size(); ++g) scene_.instances.push_back(Instance{g, {}});
+  for (uint32_t g = 0; g < scene_.geometries.size(); ++g) {
+    Instance inst;  // identity transform (OBJ has no nodes)
+    inst.geometry = g;
+    scene_.instances.push_back(inst);
+  }
   (void)opts_;
   return std::move(scene_);
 }

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm — procedural alpha textures and scenes (deterministic, platform independent).
 #include "somm/procedural.h"
 
@@ -163,7 +164,7 @@ Scene makeQuadScene(std::shared_ptr<const AlphaTexture> texture, Sampler sampler
   g.uvs = {u0, v0, u0, v1, u1, v1, u1, v0};
   g.indices = {0, 1, 2, 0, 2, 3};
   s.geometries.push_back(std::move(g));
-  s.instances.push_back(Instance{0, {}});
+  s.instances.push_back(Instance{});  // geometry 0, identity transform
   Camera cam;
   cam.eye = {0, 0, 2.5f};
   cam.target = {0, 0, 0};
@@ -234,7 +235,7 @@ Scene makeLeafCardScene(uint32_t cards, uint32_t seed) {
     g.indices.insert(g.indices.end(), {base, base + 1, base + 2, base, base + 2, base + 3});
   }
   s.geometries.push_back(std::move(g));
-  s.instances.push_back(Instance{0, {}});
+  s.instances.push_back(Instance{});  // geometry 0, identity transform
   Camera cam;
   cam.eye = {0, 0, 3.5f};
   cam.target = {0, 0, 0};

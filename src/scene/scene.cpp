@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm — scene loading entry point: dispatch by extension, common checks.
 #include "somm/scene.h"
 

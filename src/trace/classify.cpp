@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Conservative classification of barycentric regions against a material's alpha test (bitmask build,
 // bakeSimple).
 #include <tbb/parallel_for.h>

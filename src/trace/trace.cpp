@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm_trace: Embree scene, any-hit filter functions per method, the render workload.
 #include "somm/trace.h"
 
@@ -27,6 +28,8 @@ TraceCounters& TraceCounters::operator+=(const TraceCounters& o) noexcept {
   filterCalls += o.filterCalls;
   textureTests += o.textureTests;
   micromapLookups += o.micromapLookups;
+  primaryHits += o.primaryHits;
+  alphaTestedPixels += o.alphaTestedPixels;
   return *this;
 }
 
@@ -197,6 +200,11 @@ Result<std::shared_ptr<const TraceWorld>> TraceWorld::create(std::shared_ptr<con
       return makeError(ErrorCode::CorruptFile,
                        where + ": instance " + std::to_string(i) + " names no geometry");
     const Geometry& geo = scene->geometries[inst.geometry];
+    if (!isUsableTransform(inst.transform))
+      return makeError(ErrorCode::CorruptFile, where + ": instance " + std::to_string(i) + " (geometry " +
+                                                   std::to_string(inst.geometry) +
+                                                   (geo.name.empty() ? "" : " '" + geo.name + "'") +
+                                                   ") has a singular or non-finite transform");
     if (geo.triangleCount() == 0) continue;
     detail::FlatGeometry f;
     f.geometry = inst.geometry;
@@ -745,6 +753,7 @@ RenderResult Tracer::render(const RenderSettings& settings) const {
     for (uint32_t y = y0; y < y1; ++y)
       for (uint32_t x = x0; x < x1; ++x) {
         V3 acc{0, 0, 0};
+        const uint64_t filterCallsBefore = local.filterCalls;
         for (uint32_t s = 0; s < spp; ++s) {
           // Fixed sample pattern: pixel centre, then the R2 sequence around it.
           float ox = 0.5f + float(s) * 0.7548776662f, oy = 0.5f + float(s) * 0.5698402910f;
@@ -775,6 +784,7 @@ RenderResult Tracer::render(const RenderSettings& settings) const {
             acc = add(acc, add(mul(V3{0.9f, 0.93f, 0.97f}, 1.0f - k), mul(V3{0.45f, 0.62f, 0.88f}, k)));
             continue;
           }
+          ++local.primaryHits;
           const detail::FlatGeometry& f = w.flat[rh.hit.geomID];
           const detail::GeometryData& gd = w.geometries[f.geometry];
           const uint32_t prim = rh.hit.primID;
@@ -819,6 +829,7 @@ RenderResult Tracer::render(const RenderSettings& settings) const {
           acc = add(acc, mul(albedo, kind == MethodKind::StateOverlay ? 0.65f + 0.35f * direct
                                                                       : 0.3f + 0.7f * direct));
         }
+        local.alphaTestedPixels += local.filterCalls != filterCallsBefore;
         uint8_t* px = result.image.rgba.data() + (size_t(y) * W + x) * 4;
         for (int k = 0; k < 3; ++k) {
           const float v = std::clamp(acc[k] / float(spp), 0.0f, 1.0f);

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm_trace internals: per-geometry filter data and the hot-path alpha test.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Baker behaviour: tightness, levels, maxBytes, determinism across thread counts, special cases, estimate.
 #include "somm/bake.h"
 

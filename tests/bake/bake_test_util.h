@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Test helpers for the baker: procedural alpha textures and an alpha sampler written independently of
 // texture.h.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Conservativeness property tests: points of every micro-triangle (vertices, edges, interior), sampled like a
 // ray tracer would (float UV interpolation) and evaluated with an independent sampler, never contradict a
 // known state.

@@ -21,7 +21,7 @@ namespace {
 
 std::string foliageDir() {
   const char* env = std::getenv("SOMM_FOLIAGE_DIR");
-  return env ? env : std::string(SOMM_DATA_DIR) + "/../../shared/assets/foliage";
+  return env ? env : SOMM_FOLIAGE_DIR;
 }
 
 // The scene-wide array of `files` baked at `level` (geometries of every file in order); at most `maxGeometries`

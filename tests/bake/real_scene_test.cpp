@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Real scenes (data/): the oak tree's leaves and glTF's AlphaBlendModeTest, baked and checked point by point.
 #include <gtest/gtest.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm query --encoding, somm info --json encoding sizes, somm compare.
 #include <gtest/gtest.h>
 
@@ -24,14 +25,15 @@ constexpr std::pair<Encoding, const char*> kStored[] = {{Encoding::Dfs, "dfs "},
                                                         {Encoding::Rank, "rank"},
                                                         {Encoding::Hybrid, "hybr"}};
 
-// The sample file with every encoding of every geometry stored as its section (docs/encodings.md).
-SommFile encodedSample() {
-  SommFile f = sampleFile(300, 5);
-  for (SommGeometry& g : f.geometries) {
-    g.extra.clear();
+// The sample file with every encoding of every array stored as its section (docs/encodings.md).
+SommFile encodedSample(testing::Layout layout = testing::Layout::Scene) {
+  SommFile f = sampleFile(300, 5, layout);
+  for (size_t a = 0; a < f.micromaps.arrays.size(); ++a) {
+    f.encodings[a].clear();
     for (const auto& [e, id] : kStored) {
       char name[5] = {id[0], id[1], id[2], id[3], 0};
-      g.extra.push_back(EncodedSection{sectionId(name), EncodedArray::build(g.flat, e).value().serialize()});
+      f.encodings[a].push_back(
+          EncodedSection{sectionId(name), EncodedArray::build(f.micromaps.arrays[a], e).value().serialize()});
     }
   }
   return f;
@@ -44,8 +46,9 @@ std::string writeFile(const TempDir& dir, const SommFile& f) {
 }
 
 TEST(CliEncode, QueryAnswersFromEveryEncoding) {
+  for (testing::Layout layout : {testing::Layout::Scene, testing::Layout::PerGeometry}) {
   TempDir dir;
-  const SommFile f = encodedSample();
+  const SommFile f = encodedSample(layout);
   const std::string p = writeFile(dir, f);
   std::mt19937 rng(3);
   std::uniform_real_distribution<float> d(0, 1);
@@ -64,8 +67,8 @@ TEST(CliEncode, QueryAnswersFromEveryEncoding) {
     for (uint32_t t : {0u, 7u, 42u, 299u}) {
       std::string want;
       for (const auto& [u, v] : uv) {
-        State s = f.geometries[g].flat.stateUV(t, u, v);
-        if (f.geometries[g].info.format == Format::TwoState) s = toTwoState(s);
+        State s = f.micromaps.stateUV(g, t, u, v);
+        if (f.geometries[g].format == Format::TwoState) s = toTwoState(s);
         want += char('0' + int(s));
         want += '\n';
       }
@@ -78,18 +81,19 @@ TEST(CliEncode, QueryAnswersFromEveryEncoding) {
         EXPECT_EQ(r.out, want) << e << " geometry " << g << " triangle " << t;
       }
     }
+  }
 }
 
 TEST(CliEncode, QueryErrors) {
   TempDir dir;
-  SommFile f = encodedSample();
-  f.geometries[0].extra.erase(f.geometries[0].extra.begin() + 2);  // no rank in geometry 0
-  f.geometries[1].extra[0].bytes[0] ^= 0xff;                       // corrupt dfs in geometry 1
+  SommFile f = encodedSample(testing::Layout::PerGeometry);
+  f.encodings[0].erase(f.encodings[0].begin() + 2);  // no rank in array 0 (geometry 0's)
+  f.encodings[1][0].bytes[0] ^= 0xff;                // corrupt dfs in array 1 (geometry 1's)
   const std::string p = writeFile(dir, f);
   testing::writeFile(dir / "uv.txt", "0.1 0.2\n");
   RunResult r = runSomm(dir, "query " + shellQuote(p) + " -g 0 -t 0 --encoding rank", dir / "uv.txt");
   EXPECT_EQ(r.exitCode, 1);
-  EXPECT_NE(r.err.find("stores no 'rank' encoding"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("array 0 stores no 'rank' encoding"), std::string::npos) << r.err;
   r = runSomm(dir, "query " + shellQuote(p) + " -g 1 -t 0 --encoding dfs", dir / "uv.txt");
   EXPECT_EQ(r.exitCode, 1);
   EXPECT_NE(r.err.find("bad magic"), std::string::npos) << r.err;
@@ -99,25 +103,26 @@ TEST(CliEncode, QueryErrors) {
   r = runSomm(dir, "info " + shellQuote(p) + " --json");
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const nlohmann::json j = nlohmann::json::parse(r.out);
-  EXPECT_TRUE(j["geometries"][1]["encoding_sizes"]["dfs"].contains("error"));
-  EXPECT_FALSE(j["geometries"][0]["encoding_sizes"].contains("rank"));
+  EXPECT_TRUE(j["arrays"][1]["encoding_sizes"]["dfs"].contains("error"));
+  EXPECT_FALSE(j["arrays"][0]["encoding_sizes"].contains("rank"));
 }
 
 TEST(CliEncode, InfoReportsExactSizesAndRatios) {
+  for (testing::Layout layout : {testing::Layout::Scene, testing::Layout::PerGeometry}) {
   TempDir dir;
-  const SommFile f = encodedSample();
+  const SommFile f = encodedSample(layout);
   const std::string p = writeFile(dir, f);
-  const RunResult r = runSomm(dir, "info " + shellQuote(p) + " --json");
+  const RunResult r = runSomm(dir, "info " + shellQuote(p) + " --json --reference-compressors");
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const nlohmann::json j = nlohmann::json::parse(r.out);
   uint64_t totalFlat = 0, totalRank = 0;
-  for (size_t g = 0; g < f.geometries.size(); ++g) {
-    const nlohmann::json& s = j["geometries"][g]["encoding_sizes"];
-    const uint64_t flat = EncodedArray::build(f.geometries[g].flat, Encoding::Flat).value().byteSize();
+  for (size_t a = 0; a < f.micromaps.arrays.size(); ++a) {
+    const nlohmann::json& s = j["arrays"][a]["encoding_sizes"];
+    const uint64_t flat = EncodedArray::build(f.micromaps.arrays[a], Encoding::Flat).value().byteSize();
     EXPECT_EQ(s["flat"]["bytes"], flat);
     EXPECT_EQ(s["flat"]["ratio_to_flat"], 1.0);
     for (const auto& [e, id] : kStored) {
-      const uint64_t bytes = EncodedArray::build(f.geometries[g].flat, e).value().byteSize();
+      const uint64_t bytes = EncodedArray::build(f.micromaps.arrays[a], e).value().byteSize();
       EXPECT_EQ(s[encodingName(e)]["bytes"], bytes);
       EXPECT_DOUBLE_EQ(s[encodingName(e)]["ratio_to_flat"].get<double>(), double(bytes) / double(flat));
       if (e == Encoding::Rank) totalRank += bytes;
@@ -130,10 +135,15 @@ TEST(CliEncode, InfoReportsExactSizesAndRatios) {
   }
   EXPECT_EQ(j["total"]["encoding_sizes"]["flat"]["bytes"], totalFlat);
   EXPECT_EQ(j["total"]["encoding_sizes"]["rank"]["bytes"], totalRank);
-  // The text form prints the ratios too.
+  // The text form prints the ratios too, by encoding name.
   const RunResult t = runSomm(dir, "info " + shellQuote(p));
   ASSERT_EQ(t.exitCode, 0) << t.err;
-  EXPECT_NE(t.out.find("encoded sizes: flat "), std::string::npos) << t.out;
+  EXPECT_NE(t.out.find("encodings (whole array serialized: header, index buffer, descriptors, data): flat "),
+            std::string::npos)
+      << t.out;
+  EXPECT_NE(t.out.find(", dfs-fast "), std::string::npos) << t.out;
+  EXPECT_EQ(t.out.find("dfsf"), std::string::npos) << t.out;
+  }
 }
 
 TEST(CliEncode, CompareTableJsonAndPlot) {
@@ -174,12 +184,11 @@ TEST(CliEncode, BakeStoresEncodings) {
   ASSERT_EQ(r.exitCode, 0) << r.err;
   auto f = readSommFile(out);
   ASSERT_TRUE(f.ok());
-  for (const SommGeometry& g : f->geometries) {
-    ASSERT_EQ(g.extra.size(), 2u);
-    EXPECT_EQ(g.extra[0].id, sectionId("rank"));
-    EXPECT_EQ(g.extra[1].id, sectionId("hybr"));
-    EXPECT_EQ(g.extra[0].bytes, EncodedArray::build(g.flat, Encoding::Rank).value().serialize());
-  }
+  ASSERT_EQ(f->micromaps.arrays.size(), 1u);  // one scene-wide array: one section per encoding
+  ASSERT_EQ(f->encodings[0].size(), 2u);
+  EXPECT_EQ(f->encodings[0][0].id, sectionId("rank"));
+  EXPECT_EQ(f->encodings[0][1].id, sectionId("hybr"));
+  EXPECT_EQ(f->encodings[0][0].bytes, EncodedArray::build(f->micromaps.arrays[0], Encoding::Rank).value().serialize());
   testing::writeFile(dir / "uv.txt", "0.1 0.2\n0.3 0.3\n0.7 0.1\n0.05 0.9\n");
   const RunResult flat = runSomm(dir, "query " + shellQuote(out) + " -g 0 -t 1", dir / "uv.txt");
   const RunResult rank = runSomm(dir, "query " + shellQuote(out) + " -g 0 -t 1 --encoding rank", dir / "uv.txt");
@@ -200,13 +209,12 @@ TEST(CliEncode, DfsFastSharesTheDfsSectionAndDagsAnswer) {
   ASSERT_EQ(r.exitCode, 0) << r.err;
   auto f = readSommFile(out);
   ASSERT_TRUE(f.ok());
-  for (const SommGeometry& g : f->geometries) {
-    ASSERT_EQ(g.extra.size(), 3u);
-    EXPECT_EQ(g.extra[0].id, sectionId("dfs "));
-    EXPECT_EQ(g.extra[1].id, sectionId("csm "));
-    EXPECT_EQ(g.extra[2].id, sectionId("sdag"));
-    EXPECT_EQ(g.extra[2].bytes, EncodedArray::build(g.flat, Encoding::Sdag).value().serialize());
-  }
+  ASSERT_EQ(f->micromaps.arrays.size(), 1u);  // one scene-wide array: the DAGs share across the scene
+  ASSERT_EQ(f->encodings[0].size(), 3u);
+  EXPECT_EQ(f->encodings[0][0].id, sectionId("dfs "));
+  EXPECT_EQ(f->encodings[0][1].id, sectionId("csm "));
+  EXPECT_EQ(f->encodings[0][2].id, sectionId("sdag"));
+  EXPECT_EQ(f->encodings[0][2].bytes, EncodedArray::build(f->micromaps.arrays[0], Encoding::Sdag).value().serialize());
   testing::writeFile(dir / "uv.txt", "0.1 0.2\n0.3 0.3\n0.7 0.1\n0.05 0.9\n0.4 0.41\n");
   const RunResult flat = runSomm(dir, "query " + shellQuote(out) + " -g 0 -t 1", dir / "uv.txt");
   ASSERT_EQ(flat.exitCode, 0) << flat.err;
@@ -218,7 +226,7 @@ TEST(CliEncode, DfsFastSharesTheDfsSectionAndDagsAnswer) {
   r = runSomm(dir, "info " + shellQuote(out) + " --json");
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const nlohmann::json j = nlohmann::json::parse(r.out);
-  const nlohmann::json& s = j["geometries"][0]["encoding_sizes"];
+  const nlohmann::json& s = j["total"]["encoding_sizes"];
   EXPECT_EQ(s["dfs-fast"]["bytes"], s["dfs"]["bytes"]);
   EXPECT_TRUE(s.contains("csm"));
   EXPECT_TRUE(s.contains("sdag"));

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm scene-info and somm gen-scene, run as a user would.
 #include <gtest/gtest.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm view: PNG output coloured by state, scene lookup, errors.
 #include <gtest/gtest.h>
 #include <stb/stb_image.h>
@@ -55,7 +56,8 @@ TEST(CliView, ColoursFollowTheStates) {
   // Find an all-opaque geometry (special index -2 everywhere) and the BLEND one (unknown-opaque everywhere).
   int opaque = -1, blend = -1, mixed = -1;
   for (size_t g = 0; g < file->geometries.size(); ++g) {
-    const auto& idx = file->geometries[g].flat.indices;
+    const std::vector<int32_t> idx(file->micromaps.indices(uint32_t(g)),
+                                   file->micromaps.indices(uint32_t(g)) + file->geometries[g].triangleCount);
     if (idx.empty()) continue;
     if (std::all_of(idx.begin(), idx.end(), [](int32_t i) { return i == -2; }) && opaque < 0) opaque = int(g);
     if (std::all_of(idx.begin(), idx.end(), [](int32_t i) { return i == -4; }) && blend < 0) blend = int(g);

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "somm/bird.h"
 
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Every encoding against the flat micromap oracle (one typed suite), sizes against the documented formulas,
 // round trips, and the validating parser against corrupt bytes.
 #include "somm/encode.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Bad-input suite, part 1: command-line options out of range and hostile text on stdin (index, microtri,
 // query).
 #include <gtest/gtest.h>

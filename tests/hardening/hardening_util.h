@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Helpers for the bad-input suite: run the built CLI under `timeout`, measure its peak RSS, and check that a
 // failure is clean (documented exit code, one-line message naming the file and the problem, no sanitizer
 // report, no output left behind).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Bad-input suite, part 3: hostile OBJ/MTL, glTF/GLB and images through the scene loader (and `somm bake`
 // when this build has it). Every case: the documented error code, one line naming the file and the problem,
 // no crash, bounded memory; for the CLI also exit code 1 and no output file (an existing one untouched).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Bad-input suite, part 2: corrupt, truncated, foreign and hostile .somm files through `somm info / query /
 // export`. Hostile files are made from a valid one, with the header's declared size and every checksum
 // recomputed after the edit so that the structural validation (not just the checksum) is what rejects them.
@@ -154,8 +155,8 @@ TEST_F(BadSomm, ForeignWrongMagicAndVersion) {
   b[0] = 's';
   expectAllReject(write("magic.somm", b), "bad magic", "wrong magic");
   b = bytes_;
-  store32(b, 8, 2);
-  expectAllReject(write("v2.somm", fixChecksums(b)), "version 2 is not supported", "version 2");
+  store32(b, 8, 3);
+  expectAllReject(write("v3.somm", fixChecksums(b)), "version 3 is not supported", "version 3");
   store32(b, 8, 0xffffffffu);
   expectAllReject(write("vmax.somm", fixChecksums(b)), "is not supported", "version 2^32-1");
   b = bytes_;
@@ -177,6 +178,12 @@ TEST_F(BadSomm, AbsurdCountsAndOffsets) {
   const std::vector<Case> cases = {
       {"geometries", "geometries cannot fit",
        [&](std::string& b) { store32(b, meta.off + 24, 0xffffffffu); }},
+      {"arrays", "arrays cannot fit", [&](std::string& b) { store32(b, meta.off + 28, 0xffffffffu); }},
+      {"array of a geometry", "does not exist", [&](std::string& b) {
+         const Chunk& geom = find(cs_, "GEOM");
+         const size_t p = geom.off + 24, name = load32(b, p), material = load32(b, p + 4 + name);
+         store32(b, p + 8 + name + material + 4, 0xfffffff0u);
+       }},
       {"triangles", "need", [&](std::string& b) { store32(b, fp, 0xffffffffu); }},
       {"descriptors", "need", [&](std::string& b) { store32(b, fp + 4, 0x7fffffffu); }},
       {"histogram", "need", [&](std::string& b) { store32(b, fp + 12, 0xffffffffu); }},

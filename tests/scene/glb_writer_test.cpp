@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // writeGlb → loadScene round trips: same numbering, geometry, materials, samplers, alpha, instances and
 // camera.
 #include <gtest/gtest.h>

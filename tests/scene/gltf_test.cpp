@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // glTF loading: .gltf (external and data-URI buffers), .glb, images of every layout, materials, samplers,
 // KHR_texture_transform, node hierarchy, camera, and malformed files.
 #include <gtest/gtest.h>

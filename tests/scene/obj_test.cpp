@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // OBJ/MTL loading: geometry numbering and fanning, the v flip, map_d / map_Kd alpha sources, -imfchan,
 // -clamp, image formats, missing textures and malformed files.
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Procedural textures and scenes: exact values, determinism, invariants.
 #include "somm/procedural.h"
 

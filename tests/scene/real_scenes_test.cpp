@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Exact facts of the two real scenes in data/ (their README.md files, and texel values and counts obtained
 // with an independent PNG decoder).
 #include <gtest/gtest.h>

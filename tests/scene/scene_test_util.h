@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Helpers for the scene tests: temporary directories, image writers (incl. a 16-bit PNG writer, which stb
 // lacks), and a small glTF builder that writes .gltf (external or data-URI buffers) and .glb files.
 #pragma once

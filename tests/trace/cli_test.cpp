@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm render / somm bench end to end on the bundled oak tree.
 #include <gtest/gtest.h>
 #include <stb_image.h>
@@ -133,22 +134,25 @@ TEST(TraceCli, RendersFromSommFile) {
   BakeOptions o;
   o.level = 5;
   o.cutoff = 0.3f;
+  std::vector<OmmArray> arrays;
   for (const Geometry& g : scene->geometries) {
     const Material& m = scene->materials[g.material];
     auto baked = bakeGeometry(g, m, o);
     ASSERT_TRUE(baked.ok()) << baked.error().message;
-    SommGeometry sg;
-    sg.info.name = g.name;
-    sg.info.material = m.name;
-    sg.info.triangleCount = g.triangleCount();
-    sg.info.format = Format::FourState;
-    sg.info.minLevel = baked->stats.minLevel;
-    sg.info.maxLevel = baked->stats.maxLevel;
-    sg.info.cutoff = 0.3f;
-    sg.info.sampler = m.sampler;
-    sg.flat = baked->array;
+    GeometryInfo sg;
+    sg.name = g.name;
+    sg.material = m.name;
+    sg.triangleCount = g.triangleCount();
+    sg.format = Format::FourState;
+    sg.minLevel = baked->stats.minLevel;
+    sg.maxLevel = baked->stats.maxLevel;
+    sg.cutoff = 0.3f;
+    sg.sampler = m.sampler;
     f.geometries.push_back(std::move(sg));
+    arrays.push_back(baked->array);
   }
+  f.micromaps = mergeToSceneArray(perGeometryMicromaps(arrays));
+  f.encodings.assign(1, {});
   const std::string somm = d.file("oak.somm");
   const Status w = writeSommFile(somm, f);
   ASSERT_TRUE(w.ok()) << w.error().message;
@@ -169,6 +173,9 @@ TEST(TraceCli, RendersFromSommFile) {
   EXPECT_EQ(nlohmann::json::parse(two.out)["texture_tests"], 0);
   // A file for another scene is rejected.
   f.geometries.pop_back();
+  arrays.pop_back();
+  f.micromaps = perGeometryMicromaps(arrays);
+  f.encodings.assign(1, {});
   ASSERT_TRUE(writeSommFile(d.file("short.somm"), f).ok());
   const auto bad = runSomm("render " + kOak + view + " --omm " + d.file("short.somm") +
                            " --method omm4-flat -o " + d.file("b.png"));

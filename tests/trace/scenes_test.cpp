@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Exactness on the bundled scenes and the procedural leaf-card scene, with micromaps from the real baker
 // (somm_bake): every 4-state method renders pixel-identical to `texture`.
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // Procedural scenes for the trace tests and benchmarks: layered alpha-tested leaf cards.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "somm/trace.h"
 
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm bake SCENE -o OUT.somm [...]: conservative OMM baking of every geometry of a glTF / OBJ scene into a
 // .somm file.
 #include <unistd.h>
@@ -32,6 +33,7 @@ struct Options {
   bool json = false;
   bool blendAsMask = false;
   std::string encodings;  // --encoding: comma list or "all" (flat is always stored)
+  std::string arrays = "scene";  // --arrays: one scene-wide OMM array, or one per geometry
 };
 
 std::string floatText(double f) {
@@ -197,39 +199,42 @@ int run(const Options& o) {
   if (o.maxBytes) file.bakeOptions.emplace_back("max_bytes", std::to_string(o.maxBytes));
   file.bakeOptions.emplace_back("blend_as_mask", o.blendAsMask ? "true" : "false");
 
+  file.bakeOptions.emplace_back("arrays", o.arrays);
+  const bool sceneArray = o.arrays == "scene";
+
   Progress progress;
-  ArraySummary total;
-  std::vector<ArraySummary> per;
-  // Bakes every geometry with levels capped at `cap`; false (after printing the error) on failure.
+  std::vector<somm::OmmArray> perGeometry;
+  // Bakes every geometry with levels capped at `cap` into file.geometries and perGeometry; false (after printing
+  // the error) on failure.
   auto bakeScene = [&](uint32_t cap, double progressFrom, double progressSpan) -> bool {
     somm::BakeOptions capped = bo;
     capped.level = std::min(bo.level, cap);
     capped.maxLevel = std::min(bo.maxLevel, cap);
     capped.maxBytes = 0;  // the scene-wide limit is applied here, over all geometries
     file.geometries.clear();
-    per.clear();
-    total = ArraySummary{};
+    perGeometry.clear();
     uint64_t done = 0;
     for (size_t gi = 0; gi < scene->geometries.size(); ++gi) {
       const somm::Geometry& g = scene->geometries[gi];
       const somm::Material& m = scene->materials[g.material];
       const uint32_t n = g.triangleCount();
-      somm::SommGeometry sg;
-      sg.info.name = g.name;
-      sg.info.material = m.name;
-      sg.info.triangleCount = n;
-      sg.info.format = bo.format;
-      sg.info.cutoff = bo.cutoff.value_or(m.alphaCutoff);
-      sg.info.sampler = m.sampler;
-      if (bo.filter) sg.info.sampler.filter = *bo.filter;
+      somm::GeometryInfo info;
+      somm::OmmArray array;
+      info.name = g.name;
+      info.material = m.name;
+      info.triangleCount = n;
+      info.format = bo.format;
+      info.cutoff = bo.cutoff.value_or(m.alphaCutoff);
+      info.sampler = m.sampler;
+      if (bo.filter) info.sampler.filter = *bo.filter;
       if (m.alphaMode == somm::AlphaMode::Blend) {
         // BLEND without --blend-as-mask is not alpha-tested: no micromaps, every triangle unknown (the
         // renderer's any-hit shader decides, as without OMMs).
         somm::OmmArrayBuilder b;
         for (uint32_t t = 0; t < n; ++t) b.addSpecial(somm::State::UnknownOpaque);
-        sg.flat = b.finish();
-        sg.info.stats.microTriangles = n;
-        sg.info.stats.unknownMicroTriangles = n;
+        array = b.finish();
+        info.stats.microTriangles = n;
+        info.stats.unknownMicroTriangles = n;
       } else {
         capped.progress = [&](double f) {
           progress.update(progressFrom + progressSpan * (double(done) + f * n) /
@@ -242,32 +247,41 @@ int run(const Options& o) {
                                  "': " + baked.error().message);
           return false;
         }
-        sg.flat = std::move(baked->array);
-        sg.info.stats.microTriangles = baked->stats.microTriangles;
-        sg.info.stats.unknownMicroTriangles = baked->stats.unknownMicroTriangles;
-        sg.info.stats.invalidUvTriangles = baked->stats.nonFiniteUvTriangles;
+        array = std::move(baked->array);
+        info.stats.microTriangles = baked->stats.microTriangles;
+        info.stats.unknownMicroTriangles = baked->stats.unknownMicroTriangles;
+        info.stats.invalidUvTriangles = baked->stats.nonFiniteUvTriangles;
         uint32_t lo = somm::kMaxLevel, hi = 0;
         for (uint8_t l : baked->levels) lo = std::min<uint32_t>(lo, l), hi = std::max<uint32_t>(hi, l);
-        for (const somm::TriangleDescriptor& d : sg.flat.descriptors)
+        for (const somm::TriangleDescriptor& d : array.descriptors)
           lo = std::min<uint32_t>(lo, d.subdivisionLevel), hi = std::max<uint32_t>(hi, d.subdivisionLevel);
-        sg.info.minLevel = lo <= hi ? lo : 0;
-        sg.info.maxLevel = lo <= hi ? hi : 0;
+        info.minLevel = lo <= hi ? lo : 0;
+        info.maxLevel = lo <= hi ? hi : 0;
       }
       done += n;
-      per.push_back(summarize(sg.flat, sg.info.stats));
-      total.add(per.back());
-      file.geometries.push_back(std::move(sg));
+      perGeometry.push_back(std::move(array));
+      file.geometries.push_back(std::move(info));
     }
+    // The layout: one scene-wide array (identical maps of all geometries stored once) or one per geometry.
+    file.micromaps = somm::perGeometryMicromaps(std::move(perGeometry));
+    perGeometry.clear();
+    if (sceneArray) file.micromaps = somm::mergeToSceneArray(file.micromaps);
+    file.encodings.assign(file.micromaps.arrays.size(), {});
     return true;
+  };
+  auto dataBytes = [&] {
+    uint64_t b = 0;
+    for (const somm::OmmArray& a : file.micromaps.arrays) b += a.data.size();
+    return b;
   };
   uint32_t cap = somm::kMaxLevel;
   if (!bakeScene(cap, 0.0, 1.0)) return kExitFailure;
-  if (o.maxBytes > 0 && total.dataBytes > o.maxBytes) {
+  if (o.maxBytes > 0 && dataBytes() > o.maxBytes) {
     // --max-bytes: lower a scene-wide level cap one step at a time (the largest maps first) until the data of
-    // all geometries fits. Level 0 always fits (one-state maps are special indices).
+    // all arrays fits. Level 0 always fits (one-state maps are special indices).
     uint32_t top = 0;
-    for (const somm::SommGeometry& g : file.geometries) top = std::max(top, g.info.maxLevel);
-    for (cap = top; total.dataBytes > o.maxBytes && cap-- > 0;)
+    for (const somm::GeometryInfo& g : file.geometries) top = std::max(top, g.maxLevel);
+    for (cap = top; dataBytes() > o.maxBytes && cap-- > 0;)
       if (!bakeScene(cap, 0.0, 1.0)) return kExitFailure;
     file.bakeOptions.emplace_back("level_cap", std::to_string(cap));
   }
@@ -276,54 +290,73 @@ int run(const Options& o) {
     std::string names;
     for (somm::Encoding e : encodings) names += (names.empty() ? "" : ",") + std::string(somm::encodingName(e));
     file.bakeOptions.emplace_back("encoding", names);
-    for (somm::SommGeometry& g : file.geometries)
-      if (somm::Status s = addEncodingSections(g, encodings); !s) {
-        printError("bake", o.scene + ": " + s.error().message);
-        return kExitFailure;
-      }
+    if (somm::Status s = addEncodingSections(file, encodings); !s) {
+      printError("bake", o.scene + ": " + s.error().message);
+      return kExitFailure;
+    }
   }
   if (somm::Status s = somm::writeSommFile(o.output, file); !s) {
     printError("bake", s.error().message);
     return kExitFailure;
   }
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const FileSummary sum = summarizeFile(file);
+  const GeometrySummary& s = sum.geometryTotal;
 
   if (o.json) {
     nlohmann::json j;
     j["scene"] = o.scene;
     j["output"] = o.output;
     j["seconds"] = seconds;
+    nlohmann::json arrays = nlohmann::json::array();
+    for (size_t a = 0; a < sum.arrays.size(); ++a) {
+      nlohmann::json x = arraySummaryJson(sum.arrays[a]);
+      x["index"] = a;
+      arrays.push_back(std::move(x));
+    }
+    j["arrays"] = arrays;
     nlohmann::json geos = nlohmann::json::array();
-    for (size_t i = 0; i < per.size(); ++i) {
-      nlohmann::json x = summaryJson(per[i]);
+    for (size_t i = 0; i < sum.geometries.size(); ++i) {
+      nlohmann::json x = geometrySummaryJson(sum.geometries[i]);
       x["index"] = i;
-      x["name"] = file.geometries[i].info.name;
-      x["material"] = file.geometries[i].info.material;
+      x["name"] = file.geometries[i].name;
+      x["material"] = file.geometries[i].material;
+      x["array"] = file.micromaps.geometries[i].array;
+      x["first_triangle"] = file.micromaps.geometries[i].firstTriangle;
+      x["distinct_micromaps"] = sum.geometries[i].distinctMicromaps;
       geos.push_back(std::move(x));
     }
     j["geometries"] = geos;
-    nlohmann::json t = summaryJson(total);
-    t["geometries"] = per.size();
+    nlohmann::json t = geometrySummaryJson(s);
+    t["geometries"] = sum.geometries.size();
+    t["arrays"] = sum.arrays.size();
+    t["unique_micromaps"] = sum.arrayTotal.uniqueMicromaps;
+    t["bytes"] = {{"data", sum.arrayTotal.dataBytes},
+                  {"descriptors", sum.arrayTotal.descriptorBytes},
+                  {"index_buffers", s.indexBytes},
+                  {"total", sum.arrayTotal.dataBytes + sum.arrayTotal.descriptorBytes + s.indexBytes}};
     j["total"] = t;
     out.put(dumpJson(j) + "\n");
     return kExitOk;
   }
-  const ArraySummary& s = total;
   char frac[32], secs[32];
   std::snprintf(frac, sizeof frac, "%.3f%%", 100.0 * s.unknownFraction());
   std::snprintf(secs, sizeof secs, "%.2f", seconds);
-  out.put(o.output + ": " + std::to_string(per.size()) + " geometries, " + std::to_string(s.triangles) +
-          " triangles baked in " + secs + " s\n");
-  out.put("  special indices: transparent " + std::to_string(s.special[0]) + ", opaque " +
+  out.put(o.output + ": " + std::to_string(sum.geometries.size()) + " geometries, " + std::to_string(s.triangles) +
+          " triangles baked in " + secs + " s into " +
+          (sceneArray ? std::string("one scene-wide OMM array")
+                      : std::to_string(sum.arrays.size()) + " OMM arrays (one per geometry)") +
+          "\n");
+  out.put("  special indices (triangles): transparent " + std::to_string(s.special[0]) + ", opaque " +
           std::to_string(s.special[1]) + ", unknown-transparent " + std::to_string(s.special[2]) +
           ", unknown-opaque " + std::to_string(s.special[3]) + "\n");
-  out.put("  micromaps: " + std::to_string(s.micromapTriangles) + " triangles use " +
-          std::to_string(s.uniqueMicromaps) + " unique micromaps, levels " + levelList(s.levelMicromaps) +
-          "\n");
-  out.put("  data " + std::to_string(s.dataBytes) + " bytes (" + humanBytes(s.dataBytes) + "), descriptors " +
-          std::to_string(s.descriptorBytes) + ", index buffer " + std::to_string(s.indexBytes) + "\n");
-  out.put("  unknown: " + std::to_string(s.unknownMicroTriangles) + " of " +
-          std::to_string(s.microTriangles) + " micro-triangles (" + frac + ")\n");
+  out.put("  micromaps: " + std::to_string(s.micromapTriangles) + " triangles reference " +
+          std::to_string(sum.arrayTotal.uniqueMicromaps) + " unique micromaps, levels (level:micromaps) " +
+          levelList(sum.arrayTotal.levelMicromaps) + "\n");
+  out.put("  build buffers: data " + bytesText(sum.arrayTotal.dataBytes) + ", descriptors " +
+          bytesText(sum.arrayTotal.descriptorBytes) + ", index buffers " + bytesText(s.indexBytes) + "\n");
+  out.put("  unknown: " + std::to_string(s.unknownMicroTriangles) + " of the " + std::to_string(s.microTriangles) +
+          " micro-triangles of the triangles with micromaps (" + frac + ")\n");
   return kExitOk;
 }
 
@@ -350,14 +383,18 @@ void setup(CLI::App& root) {
                   "2-state: what unknown micro-triangles become (default majority)")
       ->check(CLI::IsMember({"opaque", "transparent", "majority"}));
   cmd->add_option("--max-bytes", o->maxBytes,
-                  "lower the highest levels until each geometry's data fits in B bytes")
+                  "lower a scene-wide level cap until the data of all arrays fits in B bytes")
       ->check(CLI::NonNegativeNumber);  // CLI11 would wrap "-5" into 2^64 - 5
   cmd->add_flag("--estimate", o->estimate,
                 "print the data size from the levels alone, bake nothing, write nothing");
   cmd->add_option("--threads,-j", o->threads, "worker threads (default: all)");
   cmd->add_option("--encoding,-e", o->encodings,
-                  "also store these encodings (docs/encodings.md): comma list of flat, dfs, dfs-fast, rank, csm, sdag, "
-                  "hybrid, or all");
+                  "also store these encodings of each array (docs/encodings.md): comma list of flat, dfs, "
+                  "dfs-fast, rank, hybrid, csm, sdag, or all");
+  cmd->add_option("--arrays", o->arrays,
+                  "scene (default): one OMM array shared by all geometries, identical maps stored once; "
+                  "geometry: one array per geometry")
+      ->check(CLI::IsMember({"scene", "geometry"}));
   cmd->add_flag("--json", o->json, "print the summary as JSON (keys in docs/cli.md)");
   cmd->add_flag("--blend-as-mask", o->blendAsMask, "bake glTF BLEND materials as MASK with their cutoff");
   cmd->callback([o] { somm::cli::setExitCode(run(*o)); });

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm bench SCENE [--omm FILE.somm] [--methods ...] [--repeat K] [--json]: traces the same rays with every
 // any-hit method, interleaved over K repeats, and compares speed, work and images against `texture`.
 #include <algorithm>

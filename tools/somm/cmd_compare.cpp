@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm compare SCENE --levels 4,6,8,10,12 --formats 2,4 [--json] [--plot out.png]: bakes the scene at every
 // level and format and prints the memory table of every encoding (bytes and ratio to flat), optionally as a
 // PNG plot of the ratio against the level.

@@ -1,5 +1,6 @@
-// somm export FILE.somm --dir D: per geometry the raw spec buffers for vkCmdBuildMicromapsEXT / a DXR OMM
-// array build.
+// SPDX-License-Identifier: MIT
+// somm export FILE.somm --dir D: per OMM array the raw buffers of vkCmdBuildMicromapsEXT / a DXR OMM array
+// build, per geometry its OMM index buffer into its array (docs/cli.md).
 #include <filesystem>
 #include <string>
 #include <system_error>
@@ -15,11 +16,54 @@ struct Options {
   std::string dir;
 };
 
+// VkMicromapUsageEXT entries, with the Vulkan format value (1 = 2-state, 2 = 4-state) and the number of states.
 nlohmann::json usageJson(const std::vector<somm::UsageCount>& h) {
   nlohmann::json a = nlohmann::json::array();
   for (const somm::UsageCount& c : h)
-    a.push_back({{"count", c.count}, {"subdivisionLevel", c.subdivisionLevel}, {"format", c.format}});
+    a.push_back({{"count", c.count},
+                 {"subdivisionLevel", c.subdivisionLevel},
+                 {"format", c.format},
+                 {"states", c.format == uint32_t(somm::Format::TwoState) ? 2 : 4}});
   return a;
+}
+
+// One geometry's index buffer: little-endian, 2 or 4 bytes per triangle, special indices −1..−4 as 0xFFFF..0xFFFC
+// (32-bit: 0xFFFFFFFF..0xFFFFFFFC).
+std::vector<uint8_t> indexBytes(const int32_t* idx, uint32_t n, somm::IndexType type) {
+  const size_t w = size_t(type);
+  std::vector<uint8_t> out(size_t(n) * w);
+  for (size_t t = 0; t < n; ++t) {
+    const uint32_t v = uint32_t(idx[t]);
+    for (size_t k = 0; k < w; ++k) out[t * w + k] = uint8_t(v >> (8 * k));
+  }
+  return out;
+}
+
+struct OutFile {
+  std::string name;
+  std::vector<uint8_t> bytes;
+};
+
+bool writeDir(const std::filesystem::path& sub, const std::vector<OutFile>& files) {
+  std::error_code ec;
+  std::filesystem::create_directories(sub, ec);
+  if (ec) {
+    somm::cli::printError("export", sub.string() + ": cannot create directory: " + ec.message());
+    return false;
+  }
+  for (const OutFile& out : files) {
+    const somm::Status s = somm::writeFileAtomically((sub / out.name).string(), out.bytes);
+    if (!s) {
+      somm::cli::printError("export", s.error().message);
+      return false;
+    }
+  }
+  return true;
+}
+
+std::vector<uint8_t> textBytes(const nlohmann::json& j) {
+  const std::string text = somm::cli::dumpJson(j) + "\n";
+  return std::vector<uint8_t>(text.begin(), text.end());
 }
 
 int run(const Options& o) {
@@ -30,6 +74,7 @@ int run(const Options& o) {
     return kExitFailure;
   }
   const somm::SommFile& f = *file;
+  const somm::SceneMicromaps& m = f.micromaps;
   std::error_code ec;
   std::filesystem::create_directories(o.dir, ec);
   if (ec || !std::filesystem::is_directory(o.dir)) {
@@ -37,48 +82,47 @@ int run(const Options& o) {
                o.dir + ": cannot create the output directory" + (ec ? ": " + ec.message() : std::string()));
     return kExitFailure;
   }
-  for (size_t gi = 0; gi < f.geometries.size(); ++gi) {
-    const somm::SommGeometry& g = f.geometries[gi];
-    const std::filesystem::path sub = std::filesystem::path(o.dir) / ("geometry-" + std::to_string(gi));
-    std::filesystem::create_directories(sub, ec);
-    if (ec) {
-      printError("export", sub.string() + ": cannot create directory: " + ec.message());
-      return kExitFailure;
-    }
-    const somm::OmmArray& a = g.flat;
-    const bool wide = a.indexType() == somm::IndexType::UInt32;
+  // Per array: the micromap build inputs (one VkMicromapEXT / DXR OMM array).
+  for (uint32_t ai = 0; ai < m.arrays.size(); ++ai) {
+    const somm::OmmArray& a = m.arrays[ai];
     nlohmann::json u;
-    u["geometry"] = gi;
-    u["name"] = g.info.name;
-    u["format"] = g.info.format == somm::Format::TwoState ? 2 : 4;
-    u["vk_format"] = g.info.format == somm::Format::TwoState ? "VK_OPACITY_MICROMAP_FORMAT_2_STATE_EXT"
-                                                             : "VK_OPACITY_MICROMAP_FORMAT_4_STATE_EXT";
-    u["triangles"] = a.indices.size();
+    u["array"] = ai;
+    nlohmann::json geos = nlohmann::json::array();
+    for (uint32_t g = 0; g < m.geometries.size(); ++g)
+      if (m.geometries[g].array == ai) geos.push_back(g);
+    u["geometries"] = geos;
     u["micromaps"] = a.descriptors.size();
     u["data_bytes"] = a.data.size();
+    u["triangle_array_stride"] = 8;
+    u["usage_counts"] = usageJson(a.histogram);  // VkMicromapBuildInfoEXT::pUsageCounts
+    if (!writeDir(std::filesystem::path(o.dir) / ("array-" + std::to_string(ai)),
+                  {{"data.bin", a.data}, {"triangles.bin", a.descriptorBytes()}, {"usage.json", textBytes(u)}}))
+      return kExitFailure;
+  }
+  // Per geometry: its OMM index buffer into its array (VkAccelerationStructureTrianglesOpacityMicromapEXT).
+  for (uint32_t gi = 0; gi < f.geometries.size(); ++gi) {
+    const somm::GeometryInfo& g = f.geometries[gi];
+    const somm::IndexType type = geometryIndexType(m, gi);
+    const bool wide = type == somm::IndexType::UInt32;
+    const bool two = g.format == somm::Format::TwoState;
+    nlohmann::json u;
+    u["geometry"] = gi;
+    u["name"] = g.name;
+    u["array"] = m.geometries[gi].array;
+    u["format"] = uint32_t(g.format);
+    u["states"] = two ? 2 : 4;
+    u["vk_format"] = two ? "VK_OPACITY_MICROMAP_FORMAT_2_STATE_EXT" : "VK_OPACITY_MICROMAP_FORMAT_4_STATE_EXT";
+    u["triangles"] = m.geometries[gi].triangleCount;
     u["index_type"] = wide ? "uint32" : "uint16";
     u["vk_index_type"] = wide ? "VK_INDEX_TYPE_UINT32" : "VK_INDEX_TYPE_UINT16";
     u["dxgi_index_format"] = wide ? "DXGI_FORMAT_R32_UINT" : "DXGI_FORMAT_R16_UINT";
     u["index_stride"] = wide ? 4 : 2;
-    u["triangle_array_stride"] = 8;
-    u["usage_counts"] = usageJson(a.histogram);  // VkMicromapBuildInfoEXT::pUsageCounts
-    u["triangle_usage_counts"] =
-        usageJson(a.triangleHistogram);  // VkAccelerationStructureTrianglesOpacityMicromapEXT
-    const std::string usage = dumpJson(u) + "\n";
-    const struct {
-      const char* name;
-      std::vector<uint8_t> bytes;
-    } outputs[] = {{"data.bin", a.data},
-                   {"triangles.bin", a.descriptorBytes()},
-                   {"index.bin", a.indexBufferBytes()},
-                   {"usage.json", std::vector<uint8_t>(usage.begin(), usage.end())}};
-    for (const auto& out : outputs) {
-      const somm::Status s = somm::writeFileAtomically((sub / out.name).string(), out.bytes);
-      if (!s) {
-        printError("export", s.error().message);
-        return kExitFailure;
-      }
-    }
+    u["base_triangle"] = 0;
+    u["triangle_usage_counts"] = usageJson(m.triangleHistogram(gi));
+    if (!writeDir(std::filesystem::path(o.dir) / ("geometry-" + std::to_string(gi)),
+                  {{"index.bin", indexBytes(m.indices(gi), m.geometries[gi].triangleCount, type)},
+                   {"usage.json", textBytes(u)}}))
+      return kExitFailure;
   }
   return kExitOk;
 }
@@ -86,11 +130,12 @@ int run(const Options& o) {
 void setup(CLI::App& root) {
   auto opts = std::make_shared<Options>();
   CLI::App* cmd = root.add_subcommand("export",
-                                      "Write each geometry's spec buffers as raw files: "
-                                      "D/geometry-<g>/data.bin (micromap data), triangles.bin "
-                                      "(8-byte VkMicromapTriangleEXT descriptors), index.bin (16- or 32-bit "
-                                      "OMM index buffer, special indices "
-                                      "-1..-4) and usage.json (format, index type, usage histograms).");
+                                      "Write the Vulkan / DXR build inputs as raw files: per OMM array "
+                                      "D/array-<a>/data.bin (micromap data), triangles.bin (8-byte "
+                                      "VkMicromapTriangleEXT descriptors) and usage.json (its geometries, "
+                                      "usage histogram); per geometry D/geometry-<g>/index.bin (its 16- or "
+                                      "32-bit OMM index buffer into its array, special indices -1..-4) and "
+                                      "usage.json (array, format, index type, its triangle usage histogram).");
   cmd->add_option("file", opts->path, ".somm file")->required();
   cmd->add_option("--dir,-d", opts->dir, "output directory (created if missing)")->required();
   cmd->callback([opts] { somm::cli::setExitCode(run(*opts)); });

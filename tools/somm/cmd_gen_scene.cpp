@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm gen-scene leaf-cards|quad ... -o OUT.glb: writes a deterministic procedural scene
 // (include/somm/procedural.h) as a .glb, for demos, CLI tests and benchmarks on scenes of any size.
 #include <algorithm>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm index --level L: `u v` per line on stdin → bird-curve index per line on stdout.
 #include <string>
 #include <vector>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm microtri --level L: micro-triangle index per line on stdin → its three vertices as integer grid coordinates.
 #include <string>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm query FILE.somm --geometry G --triangle T: `u v` per line on stdin → the micro-triangle state per
 // line.
 #include <string>
@@ -28,10 +29,11 @@ int run(const Options& o) {
                             std::to_string(f.geometries.size()) + " geometries");
     return kExitUsage;
   }
-  const somm::SommGeometry& g = f.geometries[o.geometry];
-  if (o.triangle >= g.flat.indices.size()) {
+  const somm::GeometryInfo& g = f.geometries[o.geometry];
+  const uint32_t geometry = uint32_t(o.geometry);
+  if (o.triangle >= g.triangleCount) {
     printError("query", "--triangle " + std::to_string(o.triangle) + " is out of range: geometry " +
-                            std::to_string(o.geometry) + " has " + std::to_string(g.flat.indices.size()) +
+                            std::to_string(o.geometry) + " has " + std::to_string(g.triangleCount) +
                             " triangles");
     return kExitUsage;
   }
@@ -40,14 +42,15 @@ int run(const Options& o) {
     printError("query", "--encoding '" + o.encoding + "' is not one of flat, dfs, dfs-fast, rank, hybrid, csm, sdag");
     return kExitUsage;
   }
-  auto encoded = loadEncoding(g, uint32_t(o.geometry), *enc, o.path);
+  // The geometry's triangles live in its array at firstTriangle + T (a scene-wide array holds every geometry).
+  auto encoded = loadEncoding(f, f.micromaps.geometries[geometry].array, *enc, o.path);
   if (!encoded) {
     printError("query", encoded.error().message);
     return kExitFailure;
   }
   const somm::EncodedArray& array = *encoded;
-  const uint32_t t = uint32_t(o.triangle);
-  const bool twoState = g.info.format == somm::Format::TwoState;
+  const uint32_t t = f.micromaps.globalTriangle(geometry, uint32_t(o.triangle));
+  const bool twoState = g.format == somm::Format::TwoState;
   LineReader in(stdin);
   Output out;
   std::string_view line;
@@ -82,7 +85,7 @@ void setup(CLI::App& root) {
                           "3 unknown-opaque (special indices resolved; a 2-state geometry prints 0 or 1).");
   cmd->add_option("file", opts->path, ".somm file")->required();
   cmd->add_option("--geometry,-g", opts->geometry, "geometry index (see somm info)")->required();
-  cmd->add_option("--triangle,-t", opts->triangle, "triangle index within the geometry")->required();
+  cmd->add_option("--triangle,-t", opts->triangle, "triangle index within the geometry (0 .. its triangle count - 1)")->required();
   cmd->add_option("--encoding,-e", opts->encoding,
                   "answer from this stored encoding: flat (default), dfs, dfs-fast, rank, hybrid, csm or sdag");
   cmd->callback([opts] { somm::cli::setExitCode(run(*opts)); });

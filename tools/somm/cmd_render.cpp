@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm render SCENE [--omm FILE.somm] --method M -o out.png [--json]: ray traces the scene on Embree with one
 // any-hit method and writes the image.
 #include <algorithm>
@@ -44,6 +45,8 @@ int run(const Options& o) {
   }
   const somm::TraceCounters& c = r.counters;
   const double rays = double(c.rays());
+  if (c.primaryHits == 0)
+    printError("render", o.trace.scene + ": warning: no primary ray hit the scene (the image is empty sky); check --camera");
   Output out;
   if (o.trace.json) {
     nlohmann::json j;
@@ -60,6 +63,8 @@ int run(const Options& o) {
     j["filter_calls"] = c.filterCalls;
     j["texture_tests"] = c.textureTests;
     j["micromap_lookups"] = c.micromapLookups;
+    j["primary_hits"] = c.primaryHits;
+    j["alpha_tested_pixels"] = c.alphaTestedPixels;
     j["micromap_bytes"] = (*tracer)->micromapBytes();
     j["seconds"] = r.seconds;
     j["mrays_per_s"] = r.raysPerSecond() / 1e6;
@@ -70,12 +75,14 @@ int run(const Options& o) {
         buf, sizeof buf,
         "%s: %ux%u, %u spp, method %s -> %s\n"
         "rays %llu (primary %llu, shadow %llu), %.3f s, %.2f Mrays/s\n"
-        "per ray: filter calls %.3f, texture tests %.3f, micromap lookups %.3f; micromap bytes %llu\n",
+        "per ray: filter calls %.3f, texture tests %.3f, micromap lookups %.3f; micromap bytes %llu\n"
+        "primary hits %llu; pixels with alpha-tested hits %llu\n",
         o.trace.scene.c_str(), r.image.width, r.image.height, p->settings.spp, (*tracer)->method().c_str(),
         o.output.c_str(), (unsigned long long)c.rays(), (unsigned long long)c.primaryRays,
         (unsigned long long)c.shadowRays, r.seconds, r.raysPerSecond() / 1e6,
         rays ? double(c.filterCalls) / rays : 0.0, rays ? double(c.textureTests) / rays : 0.0,
-        rays ? double(c.micromapLookups) / rays : 0.0, (unsigned long long)(*tracer)->micromapBytes());
+        rays ? double(c.micromapLookups) / rays : 0.0, (unsigned long long)(*tracer)->micromapBytes(),
+        (unsigned long long)c.primaryHits, (unsigned long long)c.alphaTestedPixels);
     out.put(buf);
     if (needMicromaps) out.put("micromaps: " + p->micromapSource + "\n");
   }

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm scene-info SCENE [--blend-as-mask] [--json]: the geometries of a glTF/OBJ scene as every command
 // numbers them, with their materials, alpha textures and samplers — what to look at before baking.
 #include <cstdio>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm view FILE.somm --geometry G [--triangles A-B] -o img.png: the alpha texture with the micro-triangles
 // of the selected triangles drawn over it, coloured by the state a ray tracer reads.
 #include <stb/stb_image_write.h>
@@ -51,8 +52,10 @@ int run(const Options& o) {
                            std::to_string(f.geometries.size()) + " geometries");
     return kExitUsage;
   }
-  const somm::SommGeometry& sg = f.geometries[o.geometry];
-  const uint64_t triangleCount = sg.flat.indices.size();
+  const somm::GeometryInfo& sg = f.geometries[o.geometry];
+  const somm::SceneMicromaps& maps = f.micromaps;
+  const uint32_t geometry = uint32_t(o.geometry);
+  const uint64_t triangleCount = sg.triangleCount;
   uint64_t first = 0, last = triangleCount ? triangleCount - 1 : 0;
   if (!o.triangles.empty()) {
     if (!parseRange(o.triangles, first, last)) {
@@ -120,7 +123,7 @@ int run(const Options& o) {
   // Each pixel centre inside a selected triangle's UV triangle gets the state at its barycentrics; ids mark
   // the micro-triangle so that borders can be outlined afterwards.
   std::vector<uint64_t> id(size_t(w) * h, 0);
-  const bool twoState = sg.info.format == somm::Format::TwoState;
+  const bool twoState = sg.format == somm::Format::TwoState;
   for (uint64_t t = first; t <= last && triangleCount > 0; ++t) {
     double px[3], py[3];
     bool finite = true;
@@ -140,8 +143,8 @@ int run(const Options& o) {
     }
     const double area = (px[1] - px[0]) * (py[2] - py[0]) - (px[2] - px[0]) * (py[1] - py[0]);
     if (std::abs(area) < 1e-12) continue;
-    const int32_t index = sg.flat.indices[size_t(t)];
-    const uint32_t level = index >= 0 ? sg.flat.descriptors[size_t(index)].subdivisionLevel : 0;
+    const int32_t index = maps.indices(geometry)[size_t(t)];
+    const uint32_t level = index >= 0 ? maps.arrayOf(geometry).descriptors[size_t(index)].subdivisionLevel : 0;
     const bool outlineMicro = std::abs(area) / 2.0 / double(somm::microTriangleCount(level)) >= 24.0;
     const int64_t x0 = std::max<int64_t>(0, int64_t(std::floor(std::min({px[0], px[1], px[2]}))));
     const int64_t x1 = std::min<int64_t>(int64_t(w) - 1, int64_t(std::ceil(std::max({px[0], px[1], px[2]}))));
@@ -154,7 +157,7 @@ int run(const Options& o) {
         const double u = ((cx - px[0]) * (py[2] - py[0]) - (px[2] - px[0]) * (cy - py[0])) / area;
         const double v = ((px[1] - px[0]) * (cy - py[0]) - (cx - px[0]) * (py[1] - py[0])) / area;
         if (u < 0.0 || v < 0.0 || u + v > 1.0) continue;
-        somm::State s = sg.flat.stateUV(uint32_t(t), float(u), float(v));
+        somm::State s = maps.stateUV(geometry, uint32_t(t), float(u), float(v));
         if (twoState) s = somm::toTwoState(s);
         const size_t p = size_t(y) * w + size_t(x);
         for (int c = 0; c < 3; ++c)

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm CLI — subcommand registry and shared helpers. Each cmd_*.cpp registers one subcommand:
 //   static const somm::cli::Registration reg("name", &setupFunction);
 // setupFunction adds a CLI11 subcommand to the root app and sets its callback, which returns the exit code via

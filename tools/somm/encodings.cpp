@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 #include "encodings.h"
 
 #include <lzma.h>
@@ -33,46 +34,59 @@ std::optional<Encoding> sectionEncoding(uint32_t id) noexcept {
   return std::nullopt;
 }
 
-Status addEncodingSections(SommGeometry& g, std::span<const Encoding> encodings) {
+std::string sectionName(uint32_t id) {
+  if (const auto e = sectionEncoding(id)) return encodingName(*e);
+  return "unknown encoding '" + sectionIdName(id) + "'";
+}
+
+Status addEncodingSections(const OmmArray& array, std::vector<EncodedSection>& extra,
+                           std::span<const Encoding> encodings) {
   for (Encoding requested : encodings) {
     // dfs-fast is the dfs tree with another lookup: one "dfs " section serves both.
     const Encoding e = EncodedArray::storedEncoding(requested);
     if (e == Encoding::Flat) continue;
-    auto a = EncodedArray::build(g.flat, e);
+    auto a = EncodedArray::build(array, e);
     if (!a) return a.error();
     EncodedSection s{encodingSectionId(e), a->serialize()};
-    auto it =
-        std::find_if(g.extra.begin(), g.extra.end(), [&](const EncodedSection& x) { return x.id == s.id; });
-    if (it != g.extra.end())
+    auto it = std::find_if(extra.begin(), extra.end(), [&](const EncodedSection& x) { return x.id == s.id; });
+    if (it != extra.end())
       *it = std::move(s);
     else
-      g.extra.push_back(std::move(s));
+      extra.push_back(std::move(s));
   }
   return Ok{};
 }
 
-Result<EncodedArray> loadEncoding(const SommGeometry& g, uint32_t geometryIndex, Encoding e,
-                                  std::string_view what) {
-  const std::string where = std::string(what) + ": geometry " + std::to_string(geometryIndex);
+Status addEncodingSections(SommFile& file, std::span<const Encoding> encodings) {
+  file.encodings.resize(file.micromaps.arrays.size());
+  for (size_t a = 0; a < file.micromaps.arrays.size(); ++a)
+    if (Status s = addEncodingSections(file.micromaps.arrays[a], file.encodings[a], encodings); !s)
+      return makeError(s.error().code, "array " + std::to_string(a) + ": " + s.error().message);
+  return Ok{};
+}
+
+Result<EncodedArray> loadEncoding(const SommFile& file, uint32_t array, Encoding e, std::string_view what) {
+  const std::string where = std::string(what) + ": array " + std::to_string(array);
+  const OmmArray& flat = file.micromaps.arrays[array];
   if (e == Encoding::Flat) {
-    auto a = EncodedArray::build(g.flat, Encoding::Flat);
+    auto a = EncodedArray::build(flat, Encoding::Flat);
     if (!a) return makeError(a.error().code, where + ": " + a.error().message);
     return a;
   }
   // dfs-fast reads the dfs section (files from before the shared section may hold a "dfsf" copy).
   const uint32_t ids[2] = {encodingSectionId(EncodedArray::storedEncoding(e)), encodingSectionId(e)};
   for (uint32_t id : ids)
-  for (const EncodedSection& s : g.extra) {
-    if (s.id != id) continue;
-    auto a = EncodedArray::parse(s.bytes, where + " encoding '" + encodingName(e) + "'");
-    if (!a) return a;
-    a->setLookup(e);
-    if (a->encoding() != e || a->triangleCount() != g.flat.indices.size())
-      return makeError(ErrorCode::CorruptFile,
-                       where + ": encoding '" + encodingName(e) +
-                           "' does not match the geometry (encoding id or triangle count)");
-    return a;
-  }
+    for (const EncodedSection& s : file.encodings[array]) {
+      if (s.id != id) continue;
+      auto a = EncodedArray::parse(s.bytes, where + " encoding '" + encodingName(e) + "'");
+      if (!a) return a;
+      a->setLookup(e);
+      if (a->encoding() != e || a->triangleCount() != flat.indices.size())
+        return makeError(ErrorCode::CorruptFile,
+                         where + ": encoding '" + encodingName(e) +
+                             "' does not match the array (encoding id or triangle count)");
+      return a;
+    }
   return makeError(
       ErrorCode::InvalidArgument,
       where + " stores no '" + encodingName(e) + "' encoding (bake with --encoding " + encodingName(e) + ")");
@@ -113,23 +127,22 @@ void EncodingSizes::add(const EncodingSizes& o) {
   std::sort(stored.begin(), stored.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
 }
 
-Result<EncodingSizes> encodingSizes(const SommGeometry& g, uint32_t geometryIndex, std::string_view what,
-                                    bool compressed) {
+Result<EncodingSizes> encodingSizes(const SommFile& file, uint32_t array, std::string_view what, bool compressed) {
   EncodingSizes s;
-  auto flat = loadEncoding(g, geometryIndex, Encoding::Flat, what);
+  auto flat = loadEncoding(file, array, Encoding::Flat, what);
   if (!flat) return flat.error();
   s.flat = flat->byteSize();
-  for (const EncodedSection& x : g.extra) {
+  for (const EncodedSection& x : file.encodings[array]) {
     const auto e = sectionEncoding(x.id);
     if (!e) continue;
-    auto a = loadEncoding(g, geometryIndex, *e, what);
+    auto a = loadEncoding(file, array, *e, what);
     if (a)
       s.stored.emplace_back(*e, a->byteSize());
     else
       s.invalid.emplace_back(*e, a.error().message);
     // The dfs section also serves dfs-fast (same bytes, another lookup).
     if (a && *e == Encoding::Dfs &&
-        std::none_of(g.extra.begin(), g.extra.end(),
+        std::none_of(file.encodings[array].begin(), file.encodings[array].end(),
                      [](const EncodedSection& x) { return x.id == encodingSectionId(Encoding::DfsFast); }))
       s.stored.emplace_back(Encoding::DfsFast, a->byteSize());
   }

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm CLI — succinct encodings in .somm files: section ids, storing, loading, size reports
 // (docs/encodings.md).
 #pragma once
@@ -15,25 +16,31 @@
 
 namespace somm::cli {
 
-// Section ids of the encodings in a geometry's extra sections: "dfs ", "dfsf", "rank", "hybr" (flat is the
-// geometry's spec buffers and is never stored twice).
+// Section ids of the encodings in an array's extra sections: "dfs ", "dfsf", "rank", "hybr" (flat is the
+// array's spec buffers and is never stored twice). Users only ever see encoding names (encodingName), never ids.
 uint32_t encodingSectionId(Encoding e) noexcept;
 std::optional<Encoding> sectionEncoding(uint32_t id) noexcept;
+// The name to show for a stored section: the encoding's name ("dfs-fast"), or for an id this build does not
+// know "unknown encoding 'xxxx'".
+std::string sectionName(uint32_t id);
 
-// Builds the given encodings of the geometry's flat array and stores them as extra sections (replacing any
-// with the same id). Flat is skipped.
-Status addEncodingSections(SommGeometry& g, std::span<const Encoding> encodings);
+// Builds the given encodings of the array and stores them in `extra` (replacing any with the same id). Flat is
+// skipped.
+Status addEncodingSections(const OmmArray& array, std::vector<EncodedSection>& extra,
+                           std::span<const Encoding> encodings);
+// The same for every array of the file.
+Status addEncodingSections(SommFile& file, std::span<const Encoding> encodings);
 
-// Encoding `e` of a geometry: flat from the spec buffers, the others parsed (validated) from their section.
-// Errors name `what` (the file) and the geometry.
-Result<EncodedArray> loadEncoding(const SommGeometry& g, uint32_t geometryIndex, Encoding e,
-                                  std::string_view what);
+// Encoding `e` of array `array`: flat from the spec buffers, the others parsed (validated) from their section.
+// It answers for the array's triangles (SceneMicromaps::globalTriangle). Errors name `what` (the file) and the
+// array.
+Result<EncodedArray> loadEncoding(const SommFile& file, uint32_t array, Encoding e, std::string_view what);
 
 // Non-random-access references: the size of `bytes` compressed with zstd -19 and xz -9.
 uint64_t zstdBytes(std::span<const uint8_t> bytes);
 uint64_t xzBytes(std::span<const uint8_t> bytes);
 
-// Exact bytes of each encoding of one or more geometries (serialized EncodedArray size: header, index buffer,
+// Exact bytes of each encoding of one or more arrays (serialized EncodedArray size: header, index buffer,
 // descriptors, data, padding) plus the compressed references of the flat array.
 struct EncodingSizes {
   uint64_t flat = 0;                                  // the flat EncodedArray (same framing as the others)
@@ -42,10 +49,9 @@ struct EncodingSizes {
   uint64_t zstd = 0, xz = 0;                              // the flat EncodedArray's bytes compressed
   void add(const EncodingSizes& o);
 };
-// Sizes of the encodings stored in g (flat always), with the compressed references when `compressed`. A
-// stored section that does not parse is listed in `invalid` (info still describes the rest of the file).
-Result<EncodingSizes> encodingSizes(const SommGeometry& g, uint32_t geometryIndex, std::string_view what,
-                                    bool compressed);
+// Sizes of the encodings stored for array `array` (flat always), with the compressed references when
+// `compressed`. A stored section that does not parse is listed in `invalid` (info still describes the rest).
+Result<EncodingSizes> encodingSizes(const SommFile& file, uint32_t array, std::string_view what, bool compressed);
 // {"flat": {"bytes": N, "ratio_to_flat": 1}, "rank": {...}, ..., "zstd-19": {..., "random_access": false},
 //  "xz-9": {...}}; an unreadable section: "rank": {"error": "..."}
 nlohmann::json encodingSizesJson(const EncodingSizes& s);

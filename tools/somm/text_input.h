@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm CLI — text-input parsing shared by the CLI and the fuzz targets (fuzz/). No CLI11, no stdout: pure
 // parsing.
 #pragma once

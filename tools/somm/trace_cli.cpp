@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm CLI — shared setup of `somm render` and `somm bench`.
 #include "trace_cli.h"
 
@@ -152,22 +153,23 @@ std::unique_ptr<PreparedTrace> prepareTrace(const char* command, const TraceCliO
     auto arrays = std::make_shared<OmmArrays>();
     bool four = true;
     for (size_t g = 0; g < file->geometries.size(); ++g) {
-      const SommGeometry& sg = file->geometries[g];
-      if (sg.info.triangleCount != scene.geometries[g].triangleCount()) {
+      const GeometryInfo& sg = file->geometries[g];
+      if (sg.triangleCount != scene.geometries[g].triangleCount()) {
         printError(command, o.omm + ": geometry " + std::to_string(g) + " has " +
-                                std::to_string(sg.info.triangleCount) + " triangles, the scene's has " +
+                                std::to_string(sg.triangleCount) + " triangles, the scene's has " +
                                 std::to_string(scene.geometries[g].triangleCount()));
         exitCode = kExitFailure;
         return nullptr;
       }
       Material& m = scene.materials[scene.geometries[g].material];
       if (m.alphaTested()) {
-        if (sg.info.format == Format::TwoState) four = false;
+        if (sg.format == Format::TwoState) four = false;
         // Trace against the alpha test the file was baked for.
-        m.alphaCutoff = sg.info.cutoff;
-        m.sampler = sg.info.sampler;
+        m.alphaCutoff = sg.cutoff;
+        m.sampler = sg.sampler;
       }
-      arrays->push_back(sg.flat);
+      // Until the tracer takes SceneMicromaps: each geometry's maps as a stand-alone array.
+      arrays->push_back(file->micromaps.standalone(uint32_t(g)));
     }
     if (four) {
       flat4 = arrays;

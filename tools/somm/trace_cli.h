@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: MIT
 // somm CLI — shared by `somm render` and `somm bench`: scene loading, micromaps (from a .somm file or baked
 // in memory), camera and image options.
 #pragma once

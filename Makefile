@@ -7,16 +7,22 @@ JOBS       ?= $(shell nproc)
 SECONDS    ?= 30
 CMAKE_GEN  := -G Ninja
 
-DEB_PKGS := cmake ninja-build g++ pkg-config libgtest-dev libgmock-dev libbenchmark-dev \
-            libtinygltf-dev libtinyobjloader-dev libstb-dev libembree-dev libtbb-dev libcli11-dev \
-            nlohmann-json3-dev libxxhash-dev libzstd-dev liblzma-dev clang libclang-rt-14-dev
+# Debian packages, per what needs them (docs/integration.md lists the same): every target installs only its own.
+PKGS_BASE  := cmake ninja-build g++ pkg-config
+PKGS_LIB   := libtbb-dev                                       # somm::somm (the baker's threads)
+PKGS_IO    := libtinygltf-dev libtinyobjloader-dev libstb-dev libxxhash-dev   # somm::io
+PKGS_TRACE := libembree-dev                                    # somm::trace
+PKGS_CLI   := libcli11-dev nlohmann-json3-dev libzstd-dev liblzma-dev
+PKGS_TEST  := libgtest-dev libgmock-dev
+PKGS_BENCH := libbenchmark-dev
+PKGS_FUZZ  := clang libclang-rt-14-dev                         # make fuzz only (~200 MB)
+PKGS_DEMO  := $(PKGS_BASE) $(PKGS_LIB) $(PKGS_IO) $(PKGS_TRACE) $(PKGS_CLI)
+PKGS_ALL   := $(PKGS_DEMO) $(PKGS_TEST) $(PKGS_BENCH)
+DEB_PKGS   := $(PKGS_ALL) $(PKGS_FUZZ)                         # everything (make deps)
 
-.PHONY: all deps configure build test sanitize fuzz fuzz-build bench demo format clean
-
-all: build
-
-deps:
-	@missing=""; for p in $(DEB_PKGS); do \
+# $(call install_pkgs,LIST): apt-get install the missing ones.
+define install_pkgs
+	@missing=""; for p in $(1); do \
 	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "install ok installed" || missing="$$missing $$p"; \
 	done; \
 	if [ -n "$$missing" ]; then \
@@ -24,11 +30,26 @@ deps:
 	  export DEBIAN_FRONTEND=noninteractive; \
 	  apt-get install -y -qq $$missing >/dev/null 2>&1 || { apt-get update -qq && apt-get install -y -qq $$missing; }; \
 	fi
+endef
 
-$(BUILD)/build.ninja: | deps
-	cmake -S . -B $(BUILD) $(CMAKE_GEN) -DCMAKE_BUILD_TYPE=Release
+CONFIGURE_ALL := cmake -S . -B $(BUILD) $(CMAKE_GEN) -DCMAKE_BUILD_TYPE=Release -DSOMM_BUILD_CLI=ON \
+                 -DSOMM_BUILD_TRACE=ON -DSOMM_BUILD_TESTS=ON -DSOMM_BUILD_BENCH=ON
 
-configure: deps $(BUILD)/build.ninja
+.PHONY: all deps deps-demo deps-all deps-fuzz configure build test sanitize fuzz fuzz-build bench demo format clean
+
+all: build
+
+deps:
+	$(call install_pkgs,$(DEB_PKGS))
+deps-demo:
+	$(call install_pkgs,$(PKGS_DEMO))
+deps-all:
+	$(call install_pkgs,$(PKGS_ALL))
+deps-fuzz:
+	$(call install_pkgs,$(PKGS_BASE) $(PKGS_LIB) $(PKGS_IO) $(PKGS_CLI) $(PKGS_FUZZ))
+
+configure: deps-all
+	$(CONFIGURE_ALL)
 
 build: configure
 	cmake --build $(BUILD) -j $(JOBS)
@@ -36,16 +57,16 @@ build: configure
 test: build
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
-sanitize: deps
+sanitize: deps-all
 	cmake -S . -B $(ASAN_BUILD) $(CMAKE_GEN) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSOMM_SANITIZE=ON -DSOMM_BUILD_BENCH=OFF
 	cmake --build $(ASAN_BUILD) -j $(JOBS)
 	cd $(ASAN_BUILD) && ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
 	  ctest --output-on-failure -j $(JOBS)
 
 # libFuzzer targets (clang, ASan+UBSan, separate build dir): each runs SECONDS seconds (docs/hardening.md).
-fuzz-build: deps
+fuzz-build: deps-fuzz
 	cmake -S . -B $(FUZZ_BUILD) $(CMAKE_GEN) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
-	  -DSOMM_FUZZ=ON -DSOMM_BUILD_TESTS=OFF -DSOMM_BUILD_BENCH=OFF -DSOMM_BUILD_TRACE=OFF
+	  -DCMAKE_C_COMPILER=clang -DSOMM_BUILD_FUZZ=ON -DSOMM_BUILD_TESTS=OFF -DSOMM_BUILD_BENCH=OFF -DSOMM_BUILD_TRACE=OFF
 	cmake --build $(FUZZ_BUILD) -j $(JOBS) --target somm_fuzzers
 
 fuzz: fuzz-build
@@ -54,12 +75,19 @@ fuzz: fuzz-build
 bench: build
 	$(BUILD)/bench/somm_bench --benchmark_counters_tabular=true
 
-demo: build
+# The demo needs the CLI alone: a first configuration of $(BUILD) leaves the tests and benchmarks out (their
+# packages are not installed); an existing one is kept. Only the `somm` target is built.
+demo: deps-demo
+	@if [ ! -f $(BUILD)/build.ninja ]; then \
+	  cmake -S . -B $(BUILD) $(CMAKE_GEN) -DCMAKE_BUILD_TYPE=Release -DSOMM_BUILD_CLI=ON -DSOMM_BUILD_TRACE=ON \
+	    -DSOMM_BUILD_TESTS=OFF -DSOMM_BUILD_BENCH=OFF; \
+	fi
+	cmake --build $(BUILD) -j $(JOBS) --target somm
 	bash tools/demo.sh $(BUILD)/tools/somm/somm
 
 format:
 	@command -v clang-format >/dev/null || apt-get install -y -qq clang-format
-	find include src tools tests bench fuzz -name '*.h' -o -name '*.cpp' | xargs clang-format -i
+	find include src tools tests bench fuzz examples -name '*.h' -o -name '*.cpp' -o -name '*.c' | xargs clang-format -i
 
 clean:
 	rm -rf $(BUILD) $(ASAN_BUILD) $(FUZZ_BUILD)

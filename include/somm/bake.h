@@ -7,9 +7,13 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <functional>
 #include <optional>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "somm/micromap.h"
@@ -24,6 +28,40 @@ namespace somm {
 // unknown-opaque / unknown-transparent by majority).
 enum class UnknownAs : uint8_t { Majority = 0, Opaque = 1, Transparent = 2 };
 
+// How a material whose alpha mode is BLEND is baked (nothing is decided silently: the default is an error).
+enum class BlendAs : uint8_t {
+  Error = 0,    // bakeScene fails, naming the material
+  Unknown = 1,  // every triangle FullyUnknownOpaque (the any-hit shader decides, as without micromaps)
+  Mask = 2,     // baked like MASK with the material's cutoff
+  Opaque = 3,   // every triangle FullyOpaque
+};
+
+// The scene's OMM arrays: one array shared by every geometry (identical maps stored once), or one per geometry.
+enum class ArrayLayout : uint8_t { SceneWide = 0, PerGeometry = 1 };
+
+// Progress callback: fraction done 0..1 (non-decreasing, ends at 1), called on the calling thread between chunks of
+// work. Returning false cancels the bake (ErrorCode::Cancelled); a callable returning void never cancels.
+class BakeProgress {
+ public:
+  BakeProgress() = default;
+  template <class F, class = std::enable_if_t<!std::is_same<std::decay_t<F>, BakeProgress>::value>>
+  BakeProgress(F f)  // NOLINT(google-explicit-constructor)
+      : fn_([f = std::move(f)](double x) mutable -> bool {
+          if constexpr (std::is_void<decltype(f(x))>::value) {
+            f(x);
+            return true;
+          } else {
+            return bool(f(x));
+          }
+        }) {}
+  explicit operator bool() const noexcept { return bool(fn_); }
+  // True: go on; false: cancel.
+  bool operator()(double fraction) const { return fn_ ? fn_(fraction) : true; }
+
+ private:
+  std::function<bool(double)> fn_;
+};
+
 struct BakeOptions {
   uint32_t level = 6;           // fixed subdivision level 0..12 (used when texelsPerMicroTri == 0)
   uint32_t maxLevel = 0;        // adaptive: cap 0..12 (used when texelsPerMicroTri > 0)
@@ -32,10 +70,14 @@ struct BakeOptions {
   UnknownAs unknownAs = UnknownAs::Majority;  // 2-state only
   std::optional<Filter> filter;               // overrides the material's sampler filter
   std::optional<float> cutoff;                // overrides the material's alpha cutoff
-  uint64_t maxBytes = 0;  // 0 = no limit; else lower the levels of the largest maps until the data fits
+  // 0 = no limit; else lower a level cap (the largest maps first) until the data fits. bakeScene: the data of all
+  // of the scene's arrays together; bakeGeometry: that geometry's data.
+  uint64_t maxBytes = 0;
   uint32_t threads = 0;   // 0 = all hardware threads
+  BlendAs blend = BlendAs::Error;               // bakeScene: materials with alpha mode BLEND
+  ArrayLayout layout = ArrayLayout::SceneWide;  // bakeScene: one array for the scene or one per geometry
   // Fraction done, 0..1, non-decreasing, ends at 1; called on the calling thread (the library never prints).
-  std::function<void(double)> progress;
+  BakeProgress progress;
 };
 
 struct BakeStats {
@@ -63,20 +105,117 @@ struct BakedGeometry {
   std::vector<uint8_t> levels;  // chosen level per triangle (after the maxBytes cap)
 };
 
-// The alpha test of one material, prepared for fast conservative queries: per-texel pass bits in a
-// summed-area table, the sampler (filter + wrap) and the cutoff. Building it is O(W·H); share it between
-// geometries of one material.
+// ---- inputs as views of the caller's memory (nothing is copied; it must outlive the bake) ----
+
+// Texel formats of an alpha texture. 8- and 16-bit channels are unsigned normalised (v / 255, v / 65535, rounded
+// to float exactly like the scene loaders), 16-bit and float values in host byte order.
+enum class TexelFormat : uint8_t { R8 = 0, RG8 = 1, RGBA8 = 2, R16 = 3, RGBA16 = 4, R32F = 5 };
+constexpr uint32_t texelChannels(TexelFormat f) noexcept {
+  return f == TexelFormat::RG8 ? 2u : (f == TexelFormat::RGBA8 || f == TexelFormat::RGBA16) ? 4u : 1u;
+}
+constexpr uint32_t texelBytes(TexelFormat f) noexcept {
+  return f == TexelFormat::R8 ? 1u
+         : f == TexelFormat::RG8 || f == TexelFormat::R16 ? 2u
+         : f == TexelFormat::RGBA8 || f == TexelFormat::R32F ? 4u
+                                                             : 8u;
+}
+constexpr const char* texelFormatName(TexelFormat f) noexcept {
+  return f == TexelFormat::R8      ? "R8"
+         : f == TexelFormat::RG8   ? "RG8"
+         : f == TexelFormat::RGBA8 ? "RGBA8"
+         : f == TexelFormat::R16   ? "R16"
+         : f == TexelFormat::RGBA16 ? "RGBA16"
+                                    : "R32F";
+}
+
+// An alpha texture in the caller's memory. Row y covers texture coordinates v in [y/H, (y+1)/H] (the AlphaTexture
+// convention of texture.h; a caller with the other convention flips its v or its rows).
+struct TextureView {
+  const void* data = nullptr;
+  uint32_t width = 0, height = 0;
+  size_t rowPitch = 0;  // bytes from one row to the next; 0 = width · texelBytes(format)
+  TexelFormat format = TexelFormat::R8;
+  uint32_t alphaChannel = 0;  // the channel that holds alpha, 0..texelChannels(format) − 1
+  const char* name = nullptr;  // for messages (e.g. the image's path); may be null
+};
+
+// How a material's triangles are treated. The zero value bakes (nothing is skipped unless stated).
+enum class MaterialAlpha : uint8_t {
+  Tested = 0,  // alpha-tested (glTF MASK): baked against the texture (or the constant alpha)
+  Opaque = 1,  // stated opaque: every triangle FullyOpaque, nothing baked
+  Blend = 2,   // glTF BLEND: as BakeOptions::blend says
+};
+
+struct MaterialInput {
+  MaterialAlpha alpha = MaterialAlpha::Tested;
+  int32_t texture = -1;        // index into BakeInputs::textures; −1: the constant alpha below everywhere
+  float constantAlpha = 1.0f;  // used when texture == −1
+  // Multiplies the texture's alpha (then clamped to [0, 1]), as glTF's baseColorFactor alpha; 1 = unchanged.
+  float alphaScale = 1.0f;
+  Sampler sampler;             // filter and wrap S/T (BakeOptions::filter overrides the filter)
+  float cutoff = 0.5f;         // opaque iff alpha >= cutoff (BakeOptions::cutoff overrides it)
+  const char* name = nullptr;  // for messages; may be null
+};
+
+enum class IndexFormat : uint8_t { None = 0, UInt16 = 2, UInt32 = 4 };
+
+struct GeometryInput {
+  const float* uvs = nullptr;  // (s, t) of vertex i at byte offset i · uvStride
+  size_t uvStride = 0;         // bytes between vertices' UVs; 0 = 8 (tightly packed pairs)
+  uint32_t vertexCount = 0;
+  const void* indices = nullptr;             // 3 per triangle; IndexFormat::None: triangle t = vertices 3t..3t+2
+  IndexFormat indexFormat = IndexFormat::None;
+  uint32_t triangleCount = 0;
+  uint32_t material = 0;       // index into BakeInputs::materials
+  const char* name = nullptr;  // for messages; may be null
+};
+
+struct BakeInputs {
+  const TextureView* textures = nullptr;
+  uint32_t textureCount = 0;
+  const MaterialInput* materials = nullptr;
+  uint32_t materialCount = 0;
+  const GeometryInput* geometries = nullptr;
+  uint32_t geometryCount = 0;
+};
+
+// The alpha test of one (texture, channel, scale, sampler, cutoff), prepared for fast conservative queries: a
+// summed-area table of the texels' pass bits; texel values are read from the caller's texture at its own precision
+// (through a table for 8/16-bit formats, never a float copy). Building it is O(W·H); bakeScene builds one per
+// distinct (texture, scale, sampler, cutoff) and shares it by every geometry and material. The texture must outlive
+// the mask.
 class AlphaMask {
  public:
   AlphaMask() = default;
-  // `texture` must be non-empty with alpha.size() == width·height (checked by bakeGeometry; asserted here).
+  // `texture` must be non-empty with alpha.size() == width·height (checked by bakeGeometry; asserted here). Viewed
+  // as R32F: no copy.
   AlphaMask(const AlphaTexture& texture, const Sampler& sampler, float cutoff);
+  // A validated view (see validateTexture); alphaScale as MaterialInput::alphaScale.
+  AlphaMask(const TextureView& texture, const Sampler& sampler, float cutoff, float alphaScale = 1.0f);
 
   uint32_t width() const noexcept { return w_; }
   uint32_t height() const noexcept { return h_; }
   const Sampler& sampler() const noexcept { return sampler_; }
   float cutoff() const noexcept { return cutoff_; }
-  const AlphaTexture* texture() const noexcept { return tex_; }
+
+  // The alpha of texel (x, y) (0 <= x < W, 0 <= y < H) as the alpha test sees it.
+  float texel(uint32_t x, uint32_t y) const noexcept {
+    const uint8_t* p = base_ + size_t(y) * pitch_ + size_t(x) * bpp_;
+    if (kind_ == Kind::U8) return lut_[*p];
+    if (kind_ == Kind::U16) {
+      uint16_t v;
+      std::memcpy(&v, p, 2);
+      return lut_[v];
+    }
+    float f;
+    std::memcpy(&f, p, 4);
+    if (scale_ != 1.0f) f = scaled(f, scale_);
+    return f;
+  }
+  static float scaled(float a, float scale) noexcept {
+    a *= scale;
+    return a < 0.0f ? 0.0f : (a > 1.0f ? 1.0f : a);  // NaN stays NaN
+  }
 
   // Number of passing texels in the (unwrapped, inclusive) texel rectangle [x0, x1] × [y0, y1] after
   // wrapping, and the number of texels it covers (counted with multiplicity per wrapped interval). Used to
@@ -86,15 +225,28 @@ class AlphaMask {
   };
   Count count(int64_t x0, int64_t x1, int64_t y0, int64_t y1) const noexcept;
 
+  // Bytes held by the mask (its table), for memory accounting.
+  size_t memoryBytes() const noexcept { return sat_.size() * sizeof(uint32_t) + lut_.size() * sizeof(float); }
+
  private:
-  const AlphaTexture* tex_ = nullptr;  // not owned; for majority sampling
+  enum class Kind : uint8_t { U8, U16, F32 };
+  const uint8_t* base_ = nullptr;  // texel (0, 0)'s alpha channel; not owned
+  size_t pitch_ = 0;
+  uint32_t bpp_ = 4;
+  Kind kind_ = Kind::F32;
+  float scale_ = 1.0f;
+  std::vector<float> lut_;  // 8/16-bit: value → alpha
   uint32_t w_ = 0, h_ = 0;
   Sampler sampler_;
   float cutoff_ = 0.5f;
   std::vector<uint32_t> sat_;  // (w+1)·(h+1) summed-area table of pass bits
+  void build();
   uint64_t rect(uint32_t x0, uint32_t x1, uint32_t y0,
                 uint32_t y1) const noexcept;  // inclusive, wrapped coords
 };
+
+// A texture view's problem in one line ("texture 'leaf.png': row pitch 10 is less than width·4 = 16"), or Ok.
+Status validateTexture(const TextureView& texture);
 
 // Per-triangle result of the classifier.
 struct TriangleBake {
@@ -131,6 +283,37 @@ Result<BakedGeometry> bakeGeometry(const Geometry& geometry, const Material& mat
 Result<BakedGeometry> bakeGeometry(const Geometry& geometry, const Material& material, const AlphaMask* mask,
                                    const BakeOptions& options);
 
+// ---- a whole scene: all geometries' triangles in one parallel pool ----
+//
+// Triangles with equal classification inputs (same mask, level and format, the same texel-space corners — exactly,
+// or after removing a whole period where the wrap mode repeats — and the same margin) are classified once; masks are
+// built once per distinct (texture, alphaScale, sampler, cutoff). Maps are streamed into the array as chunks of work
+// finish. Output bytes are identical for every thread count.
+struct GeometryBake {
+  BakeStats stats;              // this geometry's triangles; uniqueMaps / dataBytes: the maps it refers to
+  std::vector<uint8_t> levels;  // level per triangle (after the maxBytes cap); 0 where nothing was classified
+};
+
+struct SceneBake {
+  SceneMicromaps micromaps;                // ArrayLayout::SceneWide: one array; PerGeometry: one per geometry
+  std::vector<GeometryBake> geometries;    // one per input geometry
+  BakeStats total;                         // uniqueMaps / dataBytes: of the arrays as stored
+  uint64_t classifiedTriangles = 0;        // distinct classification inputs actually classified (last pass)
+  uint64_t masks = 0, maskBytes = 0;       // alpha masks built and the memory they hold
+};
+
+Result<SceneBake> bakeScene(const BakeInputs& inputs, const BakeOptions& options);
+// The same for a loaded scene (its geometries, materials and textures viewed, not copied; textures shared by
+// materials are one texture). Scene alpha modes: OPAQUE → MaterialAlpha::Opaque, MASK → Tested, BLEND → Blend.
+Result<SceneBake> bakeScene(const Scene& scene, const BakeOptions& options);
+
+// Class of a region of one triangle under a prepared mask (the baker's own test, for the tracer's bitmask): the
+// sub-triangle with barycentric corners b[k] = (u, v) of the triangle (uv0, uv1, uv2), grown by the bake margin of
+// the whole triangle. Opaque / Transparent when every point of it passes / fails the alpha test, else
+// UnknownOpaque (mixed, or a triangle with non-finite / huge UVs).
+State classifyRegion(const AlphaMask& mask, std::array<float, 2> uv0, std::array<float, 2> uv1,
+                     std::array<float, 2> uv2, const std::array<double, 2> b[3]) noexcept;
+
 // What `somm bake --estimate` reports, computed from the levels alone (no classification): the data size if
 // every alpha-tested triangle with finite UVs and a texture stored its own micromap (no special indices, no
 // deduplication). This is an exact upper bound of the baked data size (without maxBytes).
@@ -144,7 +327,7 @@ struct BakeEstimate {
 Result<BakeEstimate> estimateBake(const Geometry& geometry, const Material& material,
                                   const BakeOptions& options);
 
-// Checks BakeOptions ranges; the message names the option.
+// Checks BakeOptions ranges; the message names the option by its field ("level 13 is out of range (0..12)").
 Status validateBakeOptions(const BakeOptions& options);
 
 }  // namespace somm

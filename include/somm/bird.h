@@ -95,13 +95,19 @@ const char* baryToIndexBatchIsa() noexcept;
 // Integer barycentric grid point (u, v) in units of 2^-level.
 struct GridPoint {
   uint32_t u = 0, v = 0;
-  friend bool operator==(const GridPoint&, const GridPoint&) = default;
+  friend bool operator==(const GridPoint& a, const GridPoint& b) noexcept {
+    return a.u == b.u && a.v == b.v;
+  }
+  friend bool operator!=(const GridPoint& a, const GridPoint& b) noexcept { return !(a == b); }
 };
 
 // The three vertices of a micro-triangle in the curve's winding.
 struct MicroTriangle {
   GridPoint v[3];
-  friend bool operator==(const MicroTriangle&, const MicroTriangle&) = default;
+  friend bool operator==(const MicroTriangle& a, const MicroTriangle& b) noexcept {
+    return a.v[0] == b.v[0] && a.v[1] == b.v[1] && a.v[2] == b.v[2];
+  }
+  friend bool operator!=(const MicroTriangle& a, const MicroTriangle& b) noexcept { return !(a == b); }
 };
 
 struct MicroTriangleF {

@@ -22,11 +22,10 @@
 #pragma once
 
 #include <array>
-#include <bit>
 #include <cstdint>
 #include <cstring>
 #include <optional>
-#include <span>
+#include "somm/span.h"
 #include <string>
 #include <string_view>
 #include <vector>
@@ -35,7 +34,9 @@
 #include "somm/omm_array.h"
 #include "somm/result.h"
 
-static_assert(std::endian::native == std::endian::little, "somm encodings assume a little-endian host");
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
+#error "somm encodings assume a little-endian host"
+#endif
 
 namespace somm {
 
@@ -128,11 +129,11 @@ constexpr uint64_t rankMapBytes(uint32_t level, Format f, const TreeShape& s) no
 
 // ---- bit access (little-endian, LSB-first) ----
 // Population count without a library call: the popcnt instruction when the build targets it (-mpopcnt,
-// -march=x86-64-v2 or later), otherwise SWAR (std::popcount would call libgcc's __popcountdi2 on baseline
+// -march=x86-64-v2 or later), otherwise SWAR (std::popcount / __builtin_popcountll would call libgcc's __popcountdi2 on baseline
 // x86-64).
 inline uint32_t popcount64(uint64_t x) noexcept {
-#if defined(__POPCNT__) || !(defined(__x86_64__) || defined(__i386__))
-  return uint32_t(std::popcount(x));
+#if (defined(__GNUC__) || defined(__clang__)) && (defined(__POPCNT__) || !(defined(__x86_64__) || defined(__i386__)))
+  return uint32_t(__builtin_popcountll(x));
 #else
   x = x - ((x >> 1) & 0x5555555555555555ull);
   x = (x & 0x3333333333333333ull) + ((x >> 2) & 0x3333333333333333ull);
@@ -142,7 +143,8 @@ inline uint32_t popcount64(uint64_t x) noexcept {
 }
 inline constexpr auto kBytePopcount = [] {
   std::array<uint8_t, 256> t{};
-  for (int b = 0; b < 256; ++b) t[size_t(b)] = uint8_t(std::popcount(uint32_t(b)));
+  for (int b = 0; b < 256; ++b) t[size_t(b)] = uint8_t((b & 1) + (b >> 1 & 1) + (b >> 2 & 1) + (b >> 3 & 1) +
+                                                      (b >> 4 & 1) + (b >> 5 & 1) + (b >> 6 & 1) + (b >> 7 & 1));
   return t;
 }();
 
@@ -405,7 +407,10 @@ struct EncodedMapDesc {
   uint8_t format = 1;
   MapKind kind = MapKind::Flat;
   uint8_t reserved = 0;
-  friend bool operator==(const EncodedMapDesc&, const EncodedMapDesc&) = default;
+  friend bool operator==(const EncodedMapDesc& a, const EncodedMapDesc& b) noexcept {
+    return a.offset == b.offset && a.level == b.level && a.format == b.format && a.kind == b.kind && a.reserved == b.reserved;
+  }
+  friend bool operator!=(const EncodedMapDesc& a, const EncodedMapDesc& b) noexcept { return !(a == b); }
 };
 
 // One geometry's micromaps in one encoding, with random access.
@@ -416,10 +421,10 @@ class EncodedArray {
   Encoding encoding() const noexcept { return encoding_; }
   uint32_t triangleCount() const noexcept { return uint32_t(indices_.size()); }
   uint32_t mapCount() const noexcept { return uint32_t(maps_.size()); }
-  std::span<const int32_t> indices() const noexcept { return indices_; }
-  std::span<const EncodedMapDesc> maps() const noexcept { return maps_; }
+  Span<const int32_t> indices() const noexcept { return indices_; }
+  Span<const EncodedMapDesc> maps() const noexcept { return maps_; }
   // The data bytes, without the tail padding.
-  std::span<const uint8_t> data() const noexcept { return {data_.data(), dataBytes_}; }
+  Span<const uint8_t> data() const noexcept { return {data_.data(), dataBytes_}; }
   IndexType indexType() const noexcept { return indexType_; }
   // The sdag directory (zero unless hasDirectory(): always for sdag, for hybrid when a map is of kind Sdag).
   bool hasDirectory() const noexcept { return hasDirectory_; }
@@ -539,9 +544,12 @@ class EncodedArray {
   // Validating parser: any byte string either parses into an array whose every lookup stays in bounds or
   // yields a CorruptFile / UnsupportedFormat error with a one-line message prefixed by `what` (e.g. a file
   // name).
-  static Result<EncodedArray> parse(std::span<const uint8_t> bytes, std::string_view what = "encoded array");
+  static Result<EncodedArray> parse(Span<const uint8_t> bytes, std::string_view what = "encoded array");
 
-  friend bool operator==(const EncodedArray&, const EncodedArray&) = default;
+  friend bool operator==(const EncodedArray& a, const EncodedArray& b) {
+    return a.encoding_ == b.encoding_ && a.indexType_ == b.indexType_ && a.indices_ == b.indices_ && a.maps_ == b.maps_ && a.data_ == b.data_ && a.dataBytes_ == b.dataBytes_;
+  }
+  friend bool operator!=(const EncodedArray& a, const EncodedArray& b) noexcept { return !(a == b); }
 
  private:
   Encoding encoding_ = Encoding::Flat;

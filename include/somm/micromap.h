@@ -4,7 +4,7 @@
 
 #include <cstdint>
 #include <optional>
-#include <span>
+#include "somm/span.h"
 #include <vector>
 
 #include "somm/bird.h"
@@ -79,10 +79,13 @@ class Micromap {
   // This map in 2-state format (the spec's demotion of unknown states).
   Micromap toTwoStateMap() const;
 
-  std::span<const uint8_t> bytes() const noexcept { return bytes_; }
-  std::span<uint8_t> bytes() noexcept { return bytes_; }
+  Span<const uint8_t> bytes() const noexcept { return bytes_; }
+  Span<uint8_t> bytes() noexcept { return bytes_; }
 
-  friend bool operator==(const Micromap&, const Micromap&) = default;
+  friend bool operator==(const Micromap& a, const Micromap& b) {
+    return a.level_ == b.level_ && a.format_ == b.format_ && a.bytes_ == b.bytes_;
+  }
+  friend bool operator!=(const Micromap& a, const Micromap& b) noexcept { return !(a == b); }
 
  private:
   uint32_t level_ = 0;

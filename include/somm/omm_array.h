@@ -3,7 +3,7 @@
 #pragma once
 
 #include <cstdint>
-#include <span>
+#include "somm/span.h"
 #include <vector>
 
 #include "somm/micromap.h"
@@ -15,7 +15,10 @@ struct TriangleDescriptor {
   uint32_t dataOffset = 0;  // byte offset of the micromap in the data buffer
   uint16_t subdivisionLevel = 0;
   uint16_t format = 0;  // 1 = 2-state, 2 = 4-state
-  friend bool operator==(const TriangleDescriptor&, const TriangleDescriptor&) = default;
+  friend bool operator==(const TriangleDescriptor& a, const TriangleDescriptor& b) noexcept {
+    return a.dataOffset == b.dataOffset && a.subdivisionLevel == b.subdivisionLevel && a.format == b.format;
+  }
+  friend bool operator!=(const TriangleDescriptor& a, const TriangleDescriptor& b) noexcept { return !(a == b); }
 };
 static_assert(sizeof(TriangleDescriptor) == 8);
 
@@ -24,7 +27,10 @@ struct UsageCount {
   uint32_t count = 0;
   uint32_t subdivisionLevel = 0;
   uint32_t format = 0;
-  friend bool operator==(const UsageCount&, const UsageCount&) = default;
+  friend bool operator==(const UsageCount& a, const UsageCount& b) noexcept {
+    return a.count == b.count && a.subdivisionLevel == b.subdivisionLevel && a.format == b.format;
+  }
+  friend bool operator!=(const UsageCount& a, const UsageCount& b) noexcept { return !(a == b); }
 };
 
 enum class IndexType : uint8_t { UInt16 = 2, UInt32 = 4 };
@@ -52,7 +58,7 @@ struct OmmArray {
 struct UsageHistograms {
   std::vector<UsageCount> micromaps, triangles;
 };
-UsageHistograms countUsage(std::span<const TriangleDescriptor> descriptors, std::span<const int32_t> indices);
+UsageHistograms countUsage(Span<const TriangleDescriptor> descriptors, Span<const int32_t> indices);
 
 // Recomputes a.histogram and a.triangleHistogram from its descriptors and indices.
 void computeUsageHistograms(OmmArray& a);
@@ -65,6 +71,12 @@ class OmmArrayBuilder {
   int32_t add(const Micromap& map);
   // Appends a triangle with a special index directly.
   void addSpecial(State s);
+  // Stores a map (deduplicated; uniform maps are not stored) without appending a triangle; returns the index value
+  // add() would have stored for it.
+  int32_t intern(const Micromap& map);
+  // Appends a triangle with an index value an earlier add() / intern() returned (a descriptor of this array or a special
+  // index).
+  void addIndex(int32_t index) { array_.indices.push_back(index); }
 
   uint32_t triangleCount() const noexcept { return uint32_t(array_.indices.size()); }
   const OmmArray& array() const noexcept { return array_; }
@@ -98,6 +110,7 @@ struct GeometryMicromaps {
   friend bool operator==(const GeometryMicromaps& a, const GeometryMicromaps& b) noexcept {
     return a.array == b.array && a.firstTriangle == b.firstTriangle && a.triangleCount == b.triangleCount;
   }
+  friend bool operator!=(const GeometryMicromaps& a, const GeometryMicromaps& b) noexcept { return !(a == b); }
 };
 
 struct SceneMicromaps {

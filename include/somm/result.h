@@ -16,6 +16,7 @@ enum class ErrorCode {
   CorruptFile,          // a file is truncated, has a bad checksum or inconsistent contents
   UnsupportedFormat,    // a foreign file, unknown version or a feature we do not handle
   LimitExceeded,        // declared sizes beyond what we are willing to allocate
+  Cancelled,            // the caller's progress callback asked to stop
 };
 
 const char* errorCodeName(ErrorCode code) noexcept;

@@ -4,7 +4,7 @@
 #pragma once
 
 #include <cstdint>
-#include <span>
+#include "somm/span.h"
 #include <string>
 #include <string_view>
 #include <utility>
@@ -35,7 +35,10 @@ std::string sectionIdName(uint32_t id);
 struct EncodedSection {
   uint32_t id = 0;
   std::vector<uint8_t> bytes;
-  friend bool operator==(const EncodedSection&, const EncodedSection&) = default;
+  friend bool operator==(const EncodedSection& a, const EncodedSection& b) {
+    return a.id == b.id && a.bytes == b.bytes;
+  }
+  friend bool operator!=(const EncodedSection& a, const EncodedSection& b) noexcept { return !(a == b); }
 };
 
 // What the baker measured. Stored as is (never timings: a file is identical for any thread count).
@@ -44,7 +47,10 @@ struct GeometryBakeStats {
   uint64_t unknownMicroTriangles =
       0;                            // of which the classification left unknown (before any 2-state demotion)
   uint64_t invalidUvTriangles = 0;  // triangles with NaN/inf UVs (classified unknown)
-  friend bool operator==(const GeometryBakeStats&, const GeometryBakeStats&) = default;
+  friend bool operator==(const GeometryBakeStats& a, const GeometryBakeStats& b) noexcept {
+    return a.microTriangles == b.microTriangles && a.unknownMicroTriangles == b.unknownMicroTriangles && a.invalidUvTriangles == b.invalidUvTriangles;
+  }
+  friend bool operator!=(const GeometryBakeStats& a, const GeometryBakeStats& b) noexcept { return !(a == b); }
 };
 
 // Per-geometry metadata.
@@ -58,7 +64,10 @@ struct GeometryInfo {
   float cutoff = 0.5f;
   Sampler sampler;  // filter and wrap modes used by the bake
   GeometryBakeStats stats;
-  friend bool operator==(const GeometryInfo&, const GeometryInfo&) = default;
+  friend bool operator==(const GeometryInfo& a, const GeometryInfo& b) {
+    return a.name == b.name && a.material == b.material && a.triangleCount == b.triangleCount && a.format == b.format && a.minLevel == b.minLevel && a.maxLevel == b.maxLevel && a.cutoff == b.cutoff && a.sampler == b.sampler && a.stats == b.stats;
+  }
+  friend bool operator!=(const GeometryInfo& a, const GeometryInfo& b) noexcept { return !(a == b); }
 };
 
 struct SommFile {
@@ -84,7 +93,7 @@ Status validateOmmArray(const OmmArray& a, std::string_view what);
 Result<std::vector<uint8_t>> serializeSomm(const SommFile& file);
 // Parses and validates everything before allocating more than a small multiple of bytes.size(). `name` (the
 // path) starts every error message.
-Result<SommFile> parseSomm(std::span<const uint8_t> bytes, std::string_view name);
+Result<SommFile> parseSomm(Span<const uint8_t> bytes, std::string_view name);
 
 Status writeSommFile(const std::string& path, const SommFile& file);
 Result<SommFile> readSommFile(const std::string& path);
@@ -94,7 +103,7 @@ Result<SceneMicromaps> readSceneMicromaps(const std::string& path);
 
 // Writes `bytes` to `path` atomically: a temporary file in the same directory, fsync, rename, fsync of the
 // directory. On failure the temporary file is removed and an existing `path` is left untouched.
-Status writeFileAtomically(const std::string& path, std::span<const uint8_t> bytes);
+Status writeFileAtomically(const std::string& path, Span<const uint8_t> bytes);
 // Reads a whole file (errors name the path).
 Result<std::vector<uint8_t>> readWholeFile(const std::string& path);
 

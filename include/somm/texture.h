@@ -16,7 +16,10 @@ struct Sampler {
   Wrap wrapS = Wrap::Repeat;  // along u (texel x)
   Wrap wrapT = Wrap::Repeat;  // along v (texel y)
   Filter filter = Filter::Linear;
-  friend bool operator==(const Sampler&, const Sampler&) = default;
+  friend bool operator==(const Sampler& a, const Sampler& b) noexcept {
+    return a.wrapS == b.wrapS && a.wrapT == b.wrapT && a.filter == b.filter;
+  }
+  friend bool operator!=(const Sampler& a, const Sampler& b) noexcept { return !(a == b); }
 };
 
 // Alpha values in [0, 1], row-major. Texel (x, y) covers texture coordinates [x/W, (x+1)/W] × [y/H, (y+1)/H] in the

@@ -71,7 +71,10 @@ struct TraceCounters {
   uint64_t alphaTestedPixels = 0;
   uint64_t rays() const noexcept { return primaryRays + shadowRays; }
   TraceCounters& operator+=(const TraceCounters& o) noexcept;
-  friend bool operator==(const TraceCounters&, const TraceCounters&) = default;
+  friend bool operator==(const TraceCounters& a, const TraceCounters& b) noexcept {
+    return a.primaryRays == b.primaryRays && a.shadowRays == b.shadowRays && a.filterCalls == b.filterCalls && a.textureTests == b.textureTests && a.micromapLookups == b.micromapLookups;
+  }
+  friend bool operator!=(const TraceCounters& a, const TraceCounters& b) noexcept { return !(a == b); }
 };
 
 // 8-bit RGBA, row 0 at the top.

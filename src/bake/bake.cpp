@@ -251,19 +251,20 @@ struct TriangleClassifier {
   // within 1e-6 of the cutoff stay unknown (sampleAlpha's rounding).
   unsigned bilinearCells(const double X[3], const double Y[3], int64_t j0, int64_t j1) const noexcept {
     const double m = margin;
-    const AlphaTexture& t = *mask.texture();
     const Sampler& smp = mask.sampler();
     const float cutoff = mask.cutoff();
+    const uint32_t tw = mask.width(), th = mask.height();
     const double tol = 1e-6 * std::max(1.0, std::fabs(double(cutoff)));
     unsigned acc = 0;
     for (int64_t j = j0; j <= j1; ++j) {
       double xl, xr;
       if (!slabExtent(X, Y, double(j) - m, double(j + 1) + m, xl, xr)) continue;
-      const uint32_t ya = wrapFast(j, t.height, smp.wrapT), yb = wrapFast(j + 1, t.height, smp.wrapT);
+      const uint32_t ya = wrapFast(j, th, smp.wrapT), yb = wrapFast(j + 1, th, smp.wrapT);
       const int64_t a = cellFloor(xl - m), b = cellFloor(xr + m);
       for (int64_t i = a; i <= b; ++i) {
-        const uint32_t xa = wrapFast(i, t.width, smp.wrapS), xb = wrapFast(i + 1, t.width, smp.wrapS);
-        const float c00 = t.at(xa, ya), c10 = t.at(xb, ya), c01 = t.at(xa, yb), c11 = t.at(xb, yb);
+        const uint32_t xa = wrapFast(i, tw, smp.wrapS), xb = wrapFast(i + 1, tw, smp.wrapS);
+        const float c00 = mask.texel(xa, ya), c10 = mask.texel(xb, ya), c01 = mask.texel(xa, yb),
+                    c11 = mask.texel(xb, yb);
         const int passes = alphaTestPasses(c00, cutoff) + alphaTestPasses(c10, cutoff) +
                            alphaTestPasses(c01, cutoff) + alphaTestPasses(c11, cutoff);
         if (passes == 4 || passes == 0) {
@@ -321,15 +322,15 @@ struct TriangleClassifier {
   // The alpha test at cell-space point (x, y), evaluated like sampleAlpha but directly in cell space (used
   // only for the majority of unknown micro-triangles, which needs no exactness).
   bool passesAt(double x, double y) const noexcept {
-    const AlphaTexture& t = *mask.texture();
     const Sampler& smp = mask.sampler();
+    const uint32_t tw = mask.width(), th = mask.height();
     const int64_t i = cellFloor(x), j = cellFloor(y);
-    const uint32_t xa = wrapFast(i, t.width, smp.wrapS), ya = wrapFast(j, t.height, smp.wrapT);
-    if (shift == 0) return alphaTestPasses(t.at(xa, ya), mask.cutoff());
-    const uint32_t xb = wrapFast(i + 1, t.width, smp.wrapS), yb = wrapFast(j + 1, t.height, smp.wrapT);
+    const uint32_t xa = wrapFast(i, tw, smp.wrapS), ya = wrapFast(j, th, smp.wrapT);
+    if (shift == 0) return alphaTestPasses(mask.texel(xa, ya), mask.cutoff());
+    const uint32_t xb = wrapFast(i + 1, tw, smp.wrapS), yb = wrapFast(j + 1, th, smp.wrapT);
     const double fx = x - double(i), fy = y - double(j);
-    const double top = double(t.at(xa, ya)) * (1 - fx) + double(t.at(xb, ya)) * fx;
-    const double bot = double(t.at(xa, yb)) * (1 - fx) + double(t.at(xb, yb)) * fx;
+    const double top = double(mask.texel(xa, ya)) * (1 - fx) + double(mask.texel(xb, ya)) * fx;
+    const double bot = double(mask.texel(xa, yb)) * (1 - fx) + double(mask.texel(xb, yb)) * fx;
     return alphaTestPasses(float(top * (1 - fy) + bot * fy), mask.cutoff());
   }
 
@@ -398,36 +399,49 @@ State wholeUnknown(Format format, UnknownAs unknownAs) {
   return unknownAs == UnknownAs::Transparent ? State::Transparent : State::Opaque;
 }
 
-void bakeOne(const AlphaMask& mask, std::array<float, 2> uv0, std::array<float, 2> uv1,
-             std::array<float, 2> uv2, uint32_t level, Format format, UnknownAs unknownAs, Baked& out) {
-  out.uniform.reset();
-  out.unknown = 0;
-  out.nonFinite = false;
-  const double W = mask.width(), H = mask.height();
-  double X[3] = {double(uv0[0]) * W, double(uv1[0]) * W, double(uv2[0]) * W};
-  double Y[3] = {double(uv0[1]) * H, double(uv1[1]) * H, double(uv2[1]) * H};
-  // NaN/inf UVs, or texel coordinates so large that sampleAlpha's clamped texel arithmetic no longer
-  // interpolates
-  // (|x| ≥ 1e15): not classified.
+// A triangle in texel space (not yet shifted for the linear filter) with its margin: the classifier's inputs.
+struct Prepared {
+  double X[3], Y[3];
+  double margin = 0;
   bool usable = true;
+};
+
+void prepare(const AlphaMask& mask, std::array<float, 2> uv0, std::array<float, 2> uv1, std::array<float, 2> uv2,
+             Prepared& p) noexcept {
+  const double W = mask.width(), H = mask.height();
+  p.X[0] = double(uv0[0]) * W, p.X[1] = double(uv1[0]) * W, p.X[2] = double(uv2[0]) * W;
+  p.Y[0] = double(uv0[1]) * H, p.Y[1] = double(uv1[1]) * H, p.Y[2] = double(uv2[1]) * H;
+  // NaN/inf UVs, or texel coordinates so large that sampleAlpha's clamped texel arithmetic no longer
+  // interpolates (|x| ≥ 1e15): not classified.
+  p.usable = true;
   for (int k = 0; k < 3; ++k)
-    usable = usable && std::fabs(X[k]) < kMaxTexelCoord && std::fabs(Y[k]) < kMaxTexelCoord;
-  if (!usable) {
-    out.nonFinite = true;
-    out.uniform = wholeUnknown(format, unknownAs);
-    out.unknown = microTriangleCount(level);
-    return;
-  }
+    p.usable = p.usable && std::fabs(p.X[k]) < kMaxTexelCoord && std::fabs(p.Y[k]) < kMaxTexelCoord;
+  p.margin = p.usable ? bakeMarginTexels(p.X, p.Y) : 0.0;
+}
+
+TriangleClassifier makeClassifier(const AlphaMask& mask, double margin, uint32_t level, Format format,
+                                  UnknownAs unknownAs) noexcept {
   TriangleClassifier c{mask};
-  c.margin = bakeMarginTexels(X, Y);
+  c.margin = margin;
   c.shift = mask.sampler().filter == Filter::Linear ? 0.5 : 0.0;
   c.ext = mask.sampler().filter == Filter::Linear ? 1 : 0;
   c.level = level;
   c.format = format;
   c.unknownAs = unknownAs;
+  return c;
+}
+
+// Classifies a prepared, usable triangle.
+void classify(const AlphaMask& mask, const Prepared& p, uint32_t level, Format format, UnknownAs unknownAs,
+              Baked& out) {
+  out.uniform.reset();
+  out.unknown = 0;
+  out.nonFinite = false;
+  TriangleClassifier c = makeClassifier(mask, p.margin, level, format, unknownAs);
+  double X[3], Y[3];
   for (int k = 0; k < 3; ++k) {
-    X[k] -= c.shift;
-    Y[k] -= c.shift;
+    X[k] = p.X[k] - c.shift;
+    Y[k] = p.Y[k] - c.shift;
   }
   const unsigned r = c.region(X, Y, level == 0 ? kLeafCells : kNodeCells);
   if (r == kPass || r == kFail) {
@@ -447,26 +461,396 @@ void bakeOne(const AlphaMask& mask, std::array<float, 2> uv0, std::array<float, 
   out.unknown = c.unknown;
 }
 
-std::array<float, 2> uvOf(const Geometry& g, uint32_t vertex) {
-  return {g.uvs[2 * size_t(vertex)], g.uvs[2 * size_t(vertex) + 1]};
+void bakeOne(const AlphaMask& mask, std::array<float, 2> uv0, std::array<float, 2> uv1,
+             std::array<float, 2> uv2, uint32_t level, Format format, UnknownAs unknownAs, Baked& out) {
+  Prepared p;
+  prepare(mask, uv0, uv1, uv2, p);
+  if (!p.usable) {
+    out.uniform = wholeUnknown(format, unknownAs);
+    out.unknown = microTriangleCount(level);
+    out.nonFinite = true;
+    return;
+  }
+  classify(mask, p, level, format, unknownAs, out);
 }
 
-Status validateGeometry(const Geometry& g, bool needUvs) {
+std::string quoted(const char* name) { return name && *name ? " '" + std::string(name) + "'" : std::string(); }
+
+std::string geometryName(uint32_t g, const GeometryInput& in) { return "geometry " + std::to_string(g) + quoted(in.name); }
+
+std::string materialName(uint32_t m, const MaterialInput& in) {
+  return in.name && *in.name ? "material '" + std::string(in.name) + "'" : "material " + std::to_string(m);
+}
+
+// ---- reading the caller's geometry ----
+
+struct GeometryReader {
+  const GeometryInput& g;
+  size_t stride() const noexcept { return g.uvStride ? g.uvStride : 2 * sizeof(float); }
+  uint32_t vertex(uint32_t t, int k) const noexcept {
+    const size_t i = 3 * size_t(t) + size_t(k);
+    switch (g.indexFormat) {
+      case IndexFormat::UInt16: {
+        uint16_t v;
+        std::memcpy(&v, static_cast<const uint8_t*>(g.indices) + 2 * i, 2);
+        return v;
+      }
+      case IndexFormat::UInt32: {
+        uint32_t v;
+        std::memcpy(&v, static_cast<const uint8_t*>(g.indices) + 4 * i, 4);
+        return v;
+      }
+      case IndexFormat::None:
+        break;
+    }
+    return uint32_t(i);
+  }
+  std::array<float, 2> uv(uint32_t vertex) const noexcept {
+    std::array<float, 2> r;
+    std::memcpy(r.data(), reinterpret_cast<const uint8_t*>(g.uvs) + size_t(vertex) * stride(), 2 * sizeof(float));
+    return r;
+  }
+  std::array<float, 2> corner(uint32_t t, int k) const noexcept { return uv(vertex(t, k)); }
+};
+
+Status validateGeometryInput(uint32_t gi, const GeometryInput& g, uint32_t materialCount, bool needUvs) {
+  const std::string name = geometryName(gi, g);
+  if (g.material >= materialCount)
+    return makeError(ErrorCode::InvalidArgument, name + ": material " + std::to_string(g.material) +
+                                                     " is out of range (" + std::to_string(materialCount) +
+                                                     " materials)");
+  if (g.triangleCount == 0) return Ok{};
+  if (g.indexFormat != IndexFormat::None && g.indexFormat != IndexFormat::UInt16 &&
+      g.indexFormat != IndexFormat::UInt32)
+    return makeError(ErrorCode::InvalidArgument, name + ": unknown index format");
+  if (g.indexFormat != IndexFormat::None && !g.indices)
+    return makeError(ErrorCode::InvalidArgument, name + ": no index data");
+  if (!needUvs) return Ok{};
+  if (!g.uvs) return makeError(ErrorCode::InvalidArgument, name + ": no UVs");
+  if (g.uvStride != 0 && g.uvStride < 2 * sizeof(float))
+    return makeError(ErrorCode::InvalidArgument,
+                     name + ": UV stride " + std::to_string(g.uvStride) + " is less than 8 bytes");
+  const GeometryReader r{g};
+  if (g.indexFormat == IndexFormat::None) {
+    if (uint64_t(g.triangleCount) * 3 > g.vertexCount)
+      return makeError(ErrorCode::InvalidArgument,
+                       name + ": " + std::to_string(g.triangleCount) + " triangles need " +
+                           std::to_string(uint64_t(g.triangleCount) * 3) + " vertices, " +
+                           std::to_string(g.vertexCount) + " given");
+    return Ok{};
+  }
+  for (uint32_t t = 0; t < g.triangleCount; ++t)
+    for (int k = 0; k < 3; ++k)
+      if (const uint32_t v = r.vertex(t, k); v >= g.vertexCount)
+        return makeError(ErrorCode::InvalidArgument, name + ": index " + std::to_string(v) + " out of range (" +
+                                                         std::to_string(g.vertexCount) + " vertices with UVs)");
+  return Ok{};
+}
+
+// ---- classification jobs: distinct classification inputs ----
+
+struct Job {
+  uint32_t mask;
+  uint32_t level;
+  double X[3], Y[3];  // texel space, after removing whole periods
+  double margin;
+};
+
+uint64_t mix(uint64_t h, uint64_t v) noexcept {
+  h ^= v + 0x9e3779b97f4a7c15ull + (h << 6) + (h >> 2);
+  return h * 0xff51afd7ed558ccdull;
+}
+
+uint64_t bitsOf(double d) noexcept {
+  uint64_t u;
+  std::memcpy(&u, &d, 8);
+  return u;
+}
+
+uint64_t hashJob(const Job& j) noexcept {
+  uint64_t h = mix(j.mask, j.level);
+  for (int k = 0; k < 3; ++k) h = mix(mix(h, bitsOf(j.X[k])), bitsOf(j.Y[k]));
+  h = mix(h, bitsOf(j.margin));
+  return h ^ (h >> 29);
+}
+
+bool sameJob(const Job& a, const Job& b) noexcept {
+  if (a.mask != b.mask || a.level != b.level || bitsOf(a.margin) != bitsOf(b.margin)) return false;
+  for (int k = 0; k < 3; ++k)
+    if (bitsOf(a.X[k]) != bitsOf(b.X[k]) || bitsOf(a.Y[k]) != bitsOf(b.Y[k])) return false;
+  return true;
+}
+
+// Removes whole periods of a repeating wrap mode: the cells (and the linear filter's blends) are periodic with the
+// period, so the translated region touches the same texels. Exact in double for textures up to 2^24 texels wide.
+void removePeriods(double v[3], uint32_t size, Wrap w) noexcept {
+  if (w == Wrap::ClampToEdge || size > (1u << 24)) return;
+  const double period = double(size) * (w == Wrap::MirroredRepeat ? 2.0 : 1.0);
+  const double k = std::floor(std::min(v[0], std::min(v[1], v[2])) / period);
+  if (k == 0 || !std::isfinite(k)) return;
+  for (int i = 0; i < 3; ++i) v[i] -= k * period;
+}
+
+// Open-addressing table of job ids keyed by their inputs.
+class JobTable {
+ public:
+  // The id of an equal job, or the new job's id (appended).
+  uint32_t insert(const Job& j, std::vector<Job>& jobs) {
+    if ((jobs.size() + 1) * 2 > slots_.size()) grow(jobs);
+    const uint64_t h = hashJob(j);
+    for (size_t i = h & (slots_.size() - 1);; i = (i + 1) & (slots_.size() - 1)) {
+      if (slots_[i] == 0) {
+        jobs.push_back(j);
+        slots_[i] = uint32_t(jobs.size());
+        return uint32_t(jobs.size() - 1);
+      }
+      if (sameJob(jobs[slots_[i] - 1], j)) return slots_[i] - 1;
+    }
+  }
+  void clear() { slots_.assign(1024, 0); }
+
+ private:
+  std::vector<uint32_t> slots_ = std::vector<uint32_t>(1024, 0);
+  void grow(const std::vector<Job>& jobs) {
+    std::vector<uint32_t> next(slots_.size() * 2, 0);
+    for (uint32_t id = 0; id < jobs.size(); ++id)
+      for (size_t i = hashJob(jobs[id]) & (next.size() - 1);; i = (i + 1) & (next.size() - 1))
+        if (next[i] == 0) {
+          next[i] = id + 1;
+          break;
+        }
+    slots_ = std::move(next);
+  }
+};
+
+// Per-triangle reference: a job id, or a special outcome.
+constexpr uint32_t kSpecialBit = 0x80000000u, kNonFiniteBit = 0x40000000u, kAllUnknownBit = 0x20000000u;
+
+// How a material is baked.
+struct MaterialPlan {
+  const AlphaMask* mask = nullptr;  // textured and alpha-tested
+  uint32_t maskId = 0;
+  State state = State::Opaque;      // when not textured
+  bool allUnknown = false;          // BLEND as unknown: counts as unknown micro-triangles
+};
+
+struct CoreInputs {
+  const BakeInputs& in;
+  std::vector<MaterialPlan> plans;  // per material
+};
+
+// Per-geometry statistics, the layout, and the totals, from the scene-wide array of a pass.
+void finishScene(const BakeInputs& in, const BakeOptions& o, OmmArray array, SceneBake& out) {
+  std::vector<uint32_t> stamp(array.descriptors.size(), 0);
+  uint32_t first = 0;
+  for (uint32_t g = 0; g < in.geometryCount; ++g) {
+    const uint32_t n = in.geometries[g].triangleCount;
+    GeometryBake& gb = out.geometries[g];
+    if (gb.levels.size() != n) gb.levels.assign(n, 0);
+    BakeStats& st = gb.stats;
+    st.triangles = n;
+    for (uint32_t t = 0; t < n; ++t) {
+      const int32_t i = array.indices[first + t];
+      if (isSpecialIndex(i)) {
+        ++st.specialCount[size_t(stateOfSpecialIndex(i))];
+      } else if (stamp[size_t(i)] != g + 1) {
+        stamp[size_t(i)] = g + 1;
+        ++st.uniqueMaps;
+        const TriangleDescriptor& d = array.descriptors[size_t(i)];
+        st.dataBytes += micromapDataBytes(d.subdivisionLevel, Format(d.format));
+      }
+    }
+    st.minLevel = st.maxLevel = 0;
+    if (n) {
+      st.minLevel = *std::min_element(gb.levels.begin(), gb.levels.end());
+      st.maxLevel = *std::max_element(gb.levels.begin(), gb.levels.end());
+    }
+    first += n;
+  }
+  SceneMicromaps sm;
+  sm.arrays.push_back(std::move(array));
+  first = 0;
+  for (uint32_t g = 0; g < in.geometryCount; ++g) {
+    sm.geometries.push_back(GeometryMicromaps{0, first, in.geometries[g].triangleCount});
+    first += in.geometries[g].triangleCount;
+  }
+  if (o.layout == ArrayLayout::PerGeometry) {
+    std::vector<OmmArray> per;
+    per.reserve(in.geometryCount);
+    for (uint32_t g = 0; g < in.geometryCount; ++g) per.push_back(sm.standalone(g));
+    sm = perGeometryMicromaps(std::move(per));
+  }
+  out.micromaps = std::move(sm);
+  BakeStats& t = out.total;
+  t = BakeStats{};
+  bool any = false;
+  for (const GeometryBake& gb : out.geometries) {
+    const BakeStats& st = gb.stats;
+    t.triangles += st.triangles;
+    for (size_t k = 0; k < 4; ++k) t.specialCount[k] += st.specialCount[k];
+    t.microTriangles += st.microTriangles;
+    t.unknownMicroTriangles += st.unknownMicroTriangles;
+    t.nonFiniteUvTriangles += st.nonFiniteUvTriangles;
+    if (st.triangles) {
+      t.minLevel = any ? std::min(t.minLevel, st.minLevel) : st.minLevel;
+      t.maxLevel = any ? std::max(t.maxLevel, st.maxLevel) : st.maxLevel;
+      any = true;
+    }
+  }
+  for (const OmmArray& a : out.micromaps.arrays) {
+    t.uniqueMaps += a.descriptors.size();
+    t.dataBytes += a.data.size();
+  }
+}
+
+// One bake pass of every geometry at min(level, cap). Progress: base + span · fraction.
+Status bakePass(const CoreInputs& ci, const std::vector<std::vector<uint8_t>>& levels, uint32_t cap,
+                const BakeOptions& o, tbb::task_arena& arena, SceneBake& out, double progressBase,
+                double progressSpan) {
+  const BakeInputs& in = ci.in;
+  std::vector<Job> jobs;
+  JobTable table;
+  // Triangle references in scene order (geometry, triangle).
+  uint64_t triangles = 0;
+  for (uint32_t g = 0; g < in.geometryCount; ++g) triangles += in.geometries[g].triangleCount;
+  std::vector<uint32_t> refs;
+  refs.reserve(size_t(triangles));
+  for (uint32_t g = 0; g < in.geometryCount; ++g) {
+    const GeometryInput& gi = in.geometries[g];
+    const MaterialPlan& plan = ci.plans[gi.material];
+    const GeometryReader r{gi};
+    for (uint32_t t = 0; t < gi.triangleCount; ++t) {
+      if (!plan.mask) {
+        refs.push_back(kSpecialBit | (plan.allUnknown ? kAllUnknownBit : 0u) | uint32_t(plan.state));
+        continue;
+      }
+      const uint32_t level = std::min<uint32_t>(levels[g][t], cap);
+      Prepared p;
+      prepare(*plan.mask, r.corner(t, 0), r.corner(t, 1), r.corner(t, 2), p);
+      if (!p.usable) {
+        refs.push_back(kSpecialBit | kNonFiniteBit | uint32_t(wholeUnknown(o.format, o.unknownAs)));
+        continue;
+      }
+      Job j;
+      j.mask = plan.maskId;
+      j.level = level;
+      std::copy(p.X, p.X + 3, j.X);
+      std::copy(p.Y, p.Y + 3, j.Y);
+      j.margin = p.margin;
+      removePeriods(j.X, plan.mask->width(), plan.mask->sampler().wrapS);
+      removePeriods(j.Y, plan.mask->height(), plan.mask->sampler().wrapT);
+      refs.push_back(table.insert(j, jobs));
+    }
+  }
+  table = JobTable{};
+  std::vector<const AlphaMask*> masks;  // by mask id
+  for (const MaterialPlan& p : ci.plans)
+    if (p.mask) {
+      if (masks.size() <= p.maskId) masks.resize(p.maskId + 1, nullptr);
+      masks[p.maskId] = p.mask;
+    }
+
+  // Classify the jobs in chunks (bounded in count and map memory); after each chunk, stream the triangles whose
+  // jobs are done into the array in scene order. Job ids are in order of first appearance, so the triangles up to
+  // the first one of a later chunk's job are complete.
+  OmmArrayBuilder builder;
+  std::vector<int32_t> jobIndex(jobs.size(), 0);
+  std::vector<uint32_t> jobUnknown(jobs.size(), 0);
+  std::vector<Baked> slots;
+  out.geometries.assign(in.geometryCount, GeometryBake{});
+  out.classifiedTriangles = jobs.size();
+  size_t cursor = 0;
+  uint32_t cg = 0, ct = 0;  // geometry / triangle of refs[cursor]
+  while (cg < in.geometryCount && in.geometries[cg].triangleCount == 0) ++cg;
+  auto emit = [&](uint32_t jobEnd) {
+    while (cursor < refs.size()) {
+      const uint32_t ref = refs[cursor];
+      if (!(ref & kSpecialBit) && ref >= jobEnd) break;
+      GeometryBake& gb = out.geometries[cg];
+      BakeStats& st = gb.stats;
+      if (gb.levels.empty()) gb.levels.assign(in.geometries[cg].triangleCount, 0);
+      if (ref & kSpecialBit) {
+        const State s = State(ref & 3u);
+        builder.addSpecial(s);
+        if (ref & kNonFiniteBit) {
+          const uint32_t level = std::min<uint32_t>(levels[cg][ct], cap);
+          gb.levels[ct] = uint8_t(level);
+          st.microTriangles += microTriangleCount(level);
+          st.unknownMicroTriangles += microTriangleCount(level);
+          ++st.nonFiniteUvTriangles;
+        } else {
+          st.microTriangles += 1;
+          if (ref & kAllUnknownBit) st.unknownMicroTriangles += 1;
+        }
+      } else {
+        const uint32_t level = jobs[ref].level;
+        gb.levels[ct] = uint8_t(level);
+        st.microTriangles += microTriangleCount(level);
+        st.unknownMicroTriangles += jobUnknown[ref];
+        builder.addIndex(jobIndex[ref]);
+      }
+      ++cursor;
+      if (++ct == in.geometries[cg].triangleCount) {
+        ct = 0;
+        ++cg;
+        while (cg < in.geometryCount && in.geometries[cg].triangleCount == 0) ++cg;
+      }
+    }
+  };
+  uint32_t j0 = 0;
+  const uint32_t nj = uint32_t(jobs.size());
+  while (j0 < nj) {
+    uint32_t j1 = j0;
+    uint64_t bytes = 0;
+    while (j1 < nj && j1 - j0 < 4096 && bytes < (uint64_t(64) << 20)) bytes += micromapDataBytes(jobs[j1++].level, o.format);
+    if (slots.size() < j1 - j0) slots.resize(j1 - j0);  // maps are kept for reuse by the next chunk
+    arena.execute([&] {
+      tbb::parallel_for(tbb::blocked_range<uint32_t>(j0, j1, 4), [&](const tbb::blocked_range<uint32_t>& r) {
+        for (uint32_t i = r.begin(); i != r.end(); ++i) {
+          const Job& j = jobs[i];
+          Prepared p;
+          std::copy(j.X, j.X + 3, p.X);
+          std::copy(j.Y, j.Y + 3, p.Y);
+          p.margin = j.margin;
+          classify(*masks[j.mask], p, j.level, o.format, o.unknownAs, slots[i - j0]);
+        }
+      });
+    });
+    // Maps are stored in job order = order of first appearance, as a per-triangle builder would store them.
+    for (uint32_t i = j0; i < j1; ++i) {
+      const Baked& b = slots[i - j0];
+      jobUnknown[i] = uint32_t(b.unknown);
+      jobIndex[i] = b.uniform ? specialIndexFor(*b.uniform) : builder.intern(b.map);
+    }
+    emit(j1);
+    j0 = j1;
+    if (o.progress && !o.progress(progressBase + progressSpan * double(j0) / double(nj)))
+      return makeError(ErrorCode::Cancelled, "bake cancelled");
+  }
+  emit(UINT32_MAX & ~kSpecialBit);
+  assert(cursor == refs.size());
+  OmmArray array = builder.finish();
+  finishScene(in, o, std::move(array), out);
+  return Ok{};
+}
+
+}  // namespace
+
+// ---- the scene pool ----
+
+namespace {
+
+Status validateGeometryLegacy(const Geometry& g, bool needUvs) {
   const std::string name = "geometry '" + g.name + "'";
   if (g.indices.size() % 3 != 0)
     return makeError(ErrorCode::InvalidArgument,
                      name + ": index count " + std::to_string(g.indices.size()) + " is not a multiple of 3");
-  if (!needUvs) return Ok{};
-  if (g.uvs.size() % 2 != 0) return makeError(ErrorCode::InvalidArgument, name + ": odd number of UV floats");
-  const size_t vertices = g.uvs.size() / 2;
-  for (uint32_t i : g.indices)
-    if (i >= vertices)
-      return makeError(ErrorCode::InvalidArgument, name + ": index " + std::to_string(i) + " out of range (" +
-                                                       std::to_string(vertices) + " vertices with UVs)");
+  if (needUvs && g.uvs.size() % 2 != 0)
+    return makeError(ErrorCode::InvalidArgument, name + ": odd number of UV floats");
   return Ok{};
 }
 
-Status validateTexture(const Material& m) {
+Status validateAlphaTexture(const Material& m) {
   const AlphaTexture& t = *m.alpha;
   const std::string name =
       "material '" + m.name + "' alpha texture" + (m.alphaSource.empty() ? "" : " " + m.alphaSource);
@@ -480,107 +864,155 @@ Status validateTexture(const Material& m) {
   return Ok{};
 }
 
-Sampler effectiveSampler(const Material& m, const BakeOptions& o) {
-  Sampler s = m.sampler;
+Sampler effectiveSampler(Sampler s, const BakeOptions& o) {
   if (o.filter) s.filter = *o.filter;
   return s;
 }
 
-float effectiveCutoff(const Material& m, const BakeOptions& o) {
-  return o.cutoff ? *o.cutoff : m.alphaCutoff;
+GeometryInput viewOf(const Geometry& g, uint32_t material) {
+  GeometryInput in;
+  in.uvs = g.uvs.data();
+  in.uvStride = 2 * sizeof(float);
+  in.vertexCount = uint32_t(std::min<size_t>(g.uvs.size() / 2, UINT32_MAX));
+  in.indices = g.indices.data();
+  in.indexFormat = IndexFormat::UInt32;
+  in.triangleCount = g.triangleCount();
+  in.material = material;
+  in.name = g.name.c_str();
+  return in;
 }
 
-// Level per triangle before any maxBytes cap.
-std::vector<uint8_t> chooseLevels(const Geometry& g, const AlphaMask& mask, const BakeOptions& o) {
-  const uint32_t n = g.triangleCount();
-  std::vector<uint8_t> levels(n, uint8_t(o.level));
-  if (o.texelsPerMicroTri > 0) {
-    for (uint32_t t = 0; t < n; ++t)
-      levels[t] = uint8_t(adaptiveLevel(uvOf(g, g.indices[3 * t]), uvOf(g, g.indices[3 * t + 1]),
-                                        uvOf(g, g.indices[3 * t + 2]), mask.width(), mask.height(),
-                                        o.texelsPerMicroTri, o.maxLevel));
+// Bakes prepared inputs: validation of options and geometries, levels, the passes of the maxBytes cap.
+Result<SceneBake> bakeCore(const CoreInputs& ci, const BakeOptions& o) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const BakeInputs& in = ci.in;
+  for (uint32_t g = 0; g < in.geometryCount; ++g) {
+    const GeometryInput& gi = in.geometries[g];
+    const bool needUvs = gi.material < ci.plans.size() && ci.plans[gi.material].mask;
+    if (Status s = validateGeometryInput(g, gi, uint32_t(ci.plans.size()), needUvs); !s) return s.error();
   }
-  return levels;
-}
-
-// Bakes every triangle at min(level, cap) into `out`.
-// Progress of this pass is reported as progressBase + fraction · progressSpan.
-void bakeAll(const Geometry& g, const AlphaMask& mask, const std::vector<uint8_t>& levels, uint32_t cap,
-             const BakeOptions& o, tbb::task_arena& arena, BakedGeometry& out, double progressBase,
-             double progressSpan) {
-  const uint32_t n = g.triangleCount();
-  OmmArrayBuilder builder;
-  BakeStats& st = out.stats;
-  st.microTriangles = st.unknownMicroTriangles = st.nonFiniteUvTriangles = 0;
-  out.levels.assign(n, 0);
-  std::vector<Baked> slots;
-  uint32_t t = 0;
-  while (t < n) {
-    // Chunks bounded in count and map memory; chunking never changes the output (maps are added in triangle
-    // order).
-    uint32_t end = t;
-    uint64_t bytes = 0;
-    while (end < n && end - t < 4096 && bytes < (uint64_t(64) << 20)) {
-      bytes += micromapDataBytes(std::min<uint32_t>(levels[end], cap), o.format);
-      ++end;
+  // Levels before any cap.
+  std::vector<std::vector<uint8_t>> levels(in.geometryCount);
+  uint32_t top = 0;
+  for (uint32_t g = 0; g < in.geometryCount; ++g) {
+    const GeometryInput& gi = in.geometries[g];
+    const MaterialPlan& plan = ci.plans[gi.material];
+    levels[g].assign(gi.triangleCount, plan.mask ? uint8_t(o.level) : uint8_t(0));
+    if (plan.mask && o.texelsPerMicroTri > 0) {
+      const GeometryReader r{gi};
+      for (uint32_t t = 0; t < gi.triangleCount; ++t)
+        levels[g][t] = uint8_t(adaptiveLevel(r.corner(t, 0), r.corner(t, 1), r.corner(t, 2), plan.mask->width(),
+                                             plan.mask->height(), o.texelsPerMicroTri, o.maxLevel));
     }
-    if (slots.size() < end - t) slots.resize(end - t);  // maps are kept for reuse by the next chunk
-    arena.execute([&] {
-      tbb::parallel_for(tbb::blocked_range<uint32_t>(t, end, 8), [&](const tbb::blocked_range<uint32_t>& r) {
-        for (uint32_t i = r.begin(); i != r.end(); ++i) {
-          const uint32_t level = std::min<uint32_t>(levels[i], cap);
-          bakeOne(mask, uvOf(g, g.indices[3 * i]), uvOf(g, g.indices[3 * i + 1]),
-                  uvOf(g, g.indices[3 * i + 2]), level, o.format, o.unknownAs, slots[i - t]);
-        }
-      });
-    });
-    for (uint32_t i = t; i < end; ++i) {
-      Baked& b = slots[i - t];
-      const uint32_t level = std::min<uint32_t>(levels[i], cap);
-      out.levels[i] = uint8_t(level);
-      st.microTriangles += microTriangleCount(level);
-      st.unknownMicroTriangles += b.unknown;
-      st.nonFiniteUvTriangles += b.nonFinite;
-      if (b.uniform)
-        builder.addSpecial(*b.uniform);
-      else
-        builder.add(b.map);
+    for (uint8_t l : levels[g]) top = std::max<uint32_t>(top, l);
+  }
+  tbb::task_arena arena(o.threads ? int(o.threads) : tbb::task_arena::automatic);
+  SceneBake out;
+  // With maxBytes, re-bakes may follow: pass k reports within [1 − 2^−k, 1 − 2^−(k+1)], so progress stays
+  // monotone.
+  double span = o.maxBytes > 0 ? 0.5 : 1.0, base = 0;
+  uint32_t levelCap = kMaxLevel;
+  if (Status s = bakePass(ci, levels, kMaxLevel, o, arena, out, base, span); !s) return s.error();
+  if (o.maxBytes > 0) {
+    // Lower the largest maps (the highest levels) one level at a time until the data fits. Level 0 always
+    // fits: a one-state map is uniform and becomes a special index.
+    for (uint32_t cap = top; out.total.dataBytes > o.maxBytes && cap-- > 0;) {
+      base += span;
+      span *= 0.5;
+      if (Status s = bakePass(ci, levels, cap, o, arena, out, base, span); !s) return s.error();
+      levelCap = cap;
     }
-    t = end;
-    if (o.progress) o.progress(progressBase + progressSpan * double(t) / double(n));
   }
-  out.array = builder.finish();
-}
-
-void finishStats(BakedGeometry& out) {
-  BakeStats& st = out.stats;
-  st.triangles = out.array.indices.size();
-  st.specialCount = {};
-  for (int32_t i : out.array.indices)
-    if (isSpecialIndex(i)) ++st.specialCount[size_t(stateOfSpecialIndex(i))];
-  st.uniqueMaps = out.array.descriptors.size();
-  st.dataBytes = out.array.data.size();
-  st.minLevel = st.maxLevel = 0;
-  if (!out.levels.empty()) {
-    st.minLevel = *std::min_element(out.levels.begin(), out.levels.end());
-    st.maxLevel = *std::max_element(out.levels.begin(), out.levels.end());
+  if (o.progress) o.progress(1.0);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  out.total.levelCap = levelCap;
+  out.total.seconds = seconds;
+  for (GeometryBake& g : out.geometries) {
+    g.stats.levelCap = levelCap;
+    g.stats.seconds = seconds;
   }
+  return out;
 }
 
 }  // namespace
 
-AlphaMask::AlphaMask(const AlphaTexture& texture, const Sampler& sampler, float cutoff)
-    : tex_(&texture), w_(texture.width), h_(texture.height), sampler_(sampler), cutoff_(cutoff) {
-  assert(w_ > 0 && h_ > 0 && texture.alpha.size() == size_t(w_) * h_);
+void AlphaMask::build() {
   const size_t stride = size_t(w_) + 1;
   sat_.assign(stride * (size_t(h_) + 1), 0);
   for (uint32_t y = 0; y < h_; ++y) {
     uint32_t row = 0;
+    const uint32_t* above = sat_.data() + size_t(y) * stride;
+    uint32_t* cur = sat_.data() + (size_t(y) + 1) * stride;
     for (uint32_t x = 0; x < w_; ++x) {
-      row += alphaTestPasses(texture.at(x, y), cutoff) ? 1u : 0u;
-      sat_[(size_t(y) + 1) * stride + x + 1] = sat_[size_t(y) * stride + x + 1] + row;
+      row += alphaTestPasses(texel(x, y), cutoff_) ? 1u : 0u;
+      cur[x + 1] = above[x + 1] + row;
     }
   }
+}
+
+AlphaMask::AlphaMask(const AlphaTexture& texture, const Sampler& sampler, float cutoff)
+    : base_(reinterpret_cast<const uint8_t*>(texture.alpha.data())),
+      pitch_(size_t(texture.width) * sizeof(float)),
+      bpp_(sizeof(float)),
+      kind_(Kind::F32),
+      w_(texture.width),
+      h_(texture.height),
+      sampler_(sampler),
+      cutoff_(cutoff) {
+  assert(w_ > 0 && h_ > 0 && texture.alpha.size() == size_t(w_) * h_);
+  build();
+}
+
+AlphaMask::AlphaMask(const TextureView& t, const Sampler& sampler, float cutoff, float alphaScale)
+    : bpp_(texelBytes(t.format)), w_(t.width), h_(t.height), sampler_(sampler), cutoff_(cutoff) {
+  assert(validateTexture(t).ok());
+  pitch_ = t.rowPitch ? t.rowPitch : size_t(t.width) * bpp_;
+  const uint8_t* data = static_cast<const uint8_t*>(t.data);
+  switch (t.format) {
+    case TexelFormat::R8:
+    case TexelFormat::RG8:
+    case TexelFormat::RGBA8:
+      kind_ = Kind::U8;
+      base_ = data + t.alphaChannel;
+      lut_.resize(256);
+      for (uint32_t v = 0; v < 256; ++v) lut_[v] = float(double(v) / 255.0);
+      break;
+    case TexelFormat::R16:
+    case TexelFormat::RGBA16:
+      kind_ = Kind::U16;
+      base_ = data + 2 * size_t(t.alphaChannel);
+      lut_.resize(65536);
+      for (uint32_t v = 0; v < 65536; ++v) lut_[v] = float(double(v) / 65535.0);
+      break;
+    case TexelFormat::R32F:
+      kind_ = Kind::F32;
+      base_ = data;
+      scale_ = alphaScale;
+      break;
+  }
+  if (kind_ != Kind::F32 && alphaScale != 1.0f)
+    for (float& a : lut_) a = scaled(a, alphaScale);
+  build();
+}
+
+Status validateTexture(const TextureView& t) {
+  const std::string name = "texture" + quoted(t.name);
+  if (!t.data) return makeError(ErrorCode::InvalidArgument, name + ": no texel data");
+  if (t.width == 0 || t.height == 0) return makeError(ErrorCode::InvalidArgument, name + ": empty texture");
+  if (uint64_t(t.width) * t.height >= (uint64_t(1) << 32))
+    return makeError(ErrorCode::LimitExceeded, name + ": texture too large");
+  if (uint8_t(t.format) > uint8_t(TexelFormat::R32F))
+    return makeError(ErrorCode::InvalidArgument, name + ": unknown texel format");
+  if (t.alphaChannel >= texelChannels(t.format))
+    return makeError(ErrorCode::InvalidArgument, name + ": alpha channel " + std::to_string(t.alphaChannel) +
+                                                     " is out of range for " + texelFormatName(t.format));
+  const uint64_t row = uint64_t(t.width) * texelBytes(t.format);
+  if (t.rowPitch != 0 && t.rowPitch < row)
+    return makeError(ErrorCode::InvalidArgument, name + ": row pitch " + std::to_string(t.rowPitch) +
+                                                     " is less than width * " +
+                                                     std::to_string(texelBytes(t.format)) + " = " +
+                                                     std::to_string(row));
+  return Ok{};
 }
 
 uint64_t AlphaMask::rect(uint32_t x0, uint32_t x1, uint32_t y0, uint32_t y1) const noexcept {
@@ -636,83 +1068,236 @@ TriangleBake bakeTriangle(const AlphaMask& mask, std::array<float, 2> uv0, std::
   return r;
 }
 
+State classifyRegion(const AlphaMask& mask, std::array<float, 2> uv0, std::array<float, 2> uv1,
+                     std::array<float, 2> uv2, const std::array<double, 2> b[3]) noexcept {
+  Prepared p;
+  prepare(mask, uv0, uv1, uv2, p);
+  if (!p.usable) return State::UnknownOpaque;
+  TriangleClassifier c = makeClassifier(mask, p.margin, 0, Format::FourState, UnknownAs::Majority);
+  double X[3], Y[3];
+  for (int k = 0; k < 3; ++k) {
+    const double u = b[k][0], v = b[k][1], w = 1.0 - u - v;
+    X[k] = w * p.X[0] + u * p.X[1] + v * p.X[2] - c.shift;
+    Y[k] = w * p.Y[0] + u * p.Y[1] + v * p.Y[2] - c.shift;
+  }
+  const unsigned r = c.region(X, Y, kLeafCells);
+  return r == kPass ? State::Opaque : r == kFail ? State::Transparent : State::UnknownOpaque;
+}
+
 Status validateBakeOptions(const BakeOptions& o) {
   if (o.level > kMaxLevel)
-    return makeError(ErrorCode::InvalidArgument,
-                     "--level " + std::to_string(o.level) + " is out of range 0..12");
+    return makeError(ErrorCode::InvalidArgument, "level " + std::to_string(o.level) + " is out of range (0..12)");
   if (o.maxLevel > kMaxLevel)
     return makeError(ErrorCode::InvalidArgument,
-                     "--max-level " + std::to_string(o.maxLevel) + " is out of range 0..12");
+                     "maxLevel " + std::to_string(o.maxLevel) + " is out of range (0..12)");
   if (!(o.texelsPerMicroTri >= 0) || !std::isfinite(o.texelsPerMicroTri))
-    return makeError(ErrorCode::InvalidArgument, "--texels-per-microtri must be a finite number >= 0");
+    return makeError(ErrorCode::InvalidArgument, "texelsPerMicroTri must be a finite number >= 0");
   if (!isValidFormat(uint32_t(o.format)))
-    return makeError(ErrorCode::InvalidArgument, "--format must be 2 or 4");
-  if (o.cutoff && !std::isfinite(*o.cutoff))
-    return makeError(ErrorCode::InvalidArgument, "--cutoff must be finite");
-  if (uint8_t(o.unknownAs) > 2) return makeError(ErrorCode::InvalidArgument, "--unknown-as is invalid");
+    return makeError(ErrorCode::InvalidArgument, "format must be 2-state (1) or 4-state (2)");
+  if (o.cutoff && !std::isfinite(*o.cutoff)) return makeError(ErrorCode::InvalidArgument, "cutoff must be finite");
+  if (uint8_t(o.unknownAs) > 2) return makeError(ErrorCode::InvalidArgument, "unknownAs is invalid");
+  if (uint8_t(o.blend) > 3) return makeError(ErrorCode::InvalidArgument, "blend is invalid");
+  if (uint8_t(o.layout) > 1) return makeError(ErrorCode::InvalidArgument, "layout is invalid");
   return Ok{};
+}
+
+Result<SceneBake> bakeScene(const BakeInputs& in, const BakeOptions& o) {
+  if (Status s = validateBakeOptions(o); !s) return s.error();
+  if ((in.textureCount && !in.textures) || (in.materialCount && !in.materials) ||
+      (in.geometryCount && !in.geometries))
+    return makeError(ErrorCode::InvalidArgument, "bake inputs: a count without its array");
+  std::vector<bool> used(in.materialCount, false);
+  for (uint32_t g = 0; g < in.geometryCount; ++g) {
+    const GeometryInput& gi = in.geometries[g];
+    if (gi.material >= in.materialCount)
+      return makeError(ErrorCode::InvalidArgument, geometryName(g, gi) + ": material " +
+                                                       std::to_string(gi.material) + " is out of range (" +
+                                                       std::to_string(in.materialCount) + " materials)");
+    if (gi.triangleCount) used[gi.material] = true;
+  }
+  struct MaskKey {
+    int32_t texture;
+    float scale, cutoff;
+    Sampler sampler;
+  };
+  std::vector<MaskKey> keys;
+  std::vector<bool> textureChecked(in.textureCount, false);
+  CoreInputs ci{in, std::vector<MaterialPlan>(in.materialCount)};
+  std::vector<int32_t> keyOf(in.materialCount, -1);
+  for (uint32_t m = 0; m < in.materialCount; ++m) {
+    const MaterialInput& mi = in.materials[m];
+    MaterialPlan& plan = ci.plans[m];
+    MaterialAlpha mode = mi.alpha;
+    if (uint8_t(mode) > 2)
+      return makeError(ErrorCode::InvalidArgument, materialName(m, mi) + ": unknown alpha mode");
+    if (mode == MaterialAlpha::Blend && used[m]) {
+      switch (o.blend) {
+        case BlendAs::Error:
+          return makeError(ErrorCode::InvalidArgument,
+                           materialName(m, mi) +
+                               " has alpha mode BLEND: say how to bake it (blend as unknown, mask or opaque)");
+        case BlendAs::Unknown:
+          plan.state = State::UnknownOpaque;
+          plan.allUnknown = true;
+          continue;
+        case BlendAs::Opaque:
+          mode = MaterialAlpha::Opaque;
+          break;
+        case BlendAs::Mask:
+          mode = MaterialAlpha::Tested;
+          break;
+      }
+    }
+    if (mode != MaterialAlpha::Tested || !used[m]) {
+      plan.state = State::Opaque;
+      continue;
+    }
+    const float cutoff = o.cutoff ? *o.cutoff : mi.cutoff;
+    if (!std::isfinite(cutoff))
+      return makeError(ErrorCode::InvalidArgument, materialName(m, mi) + ": cutoff must be finite");
+    if (mi.texture < 0) {
+      plan.state = alphaTestPasses(mi.constantAlpha, cutoff) ? State::Opaque : State::Transparent;
+      continue;
+    }
+    if (uint32_t(mi.texture) >= in.textureCount)
+      return makeError(ErrorCode::InvalidArgument, materialName(m, mi) + ": texture " +
+                                                       std::to_string(mi.texture) + " is out of range (" +
+                                                       std::to_string(in.textureCount) + " textures)");
+    if (!textureChecked[size_t(mi.texture)]) {
+      if (Status s = validateTexture(in.textures[mi.texture]); !s)
+        return makeError(s.error().code, materialName(m, mi) + ": " + s.error().message);
+      textureChecked[size_t(mi.texture)] = true;
+    }
+    const MaskKey k{mi.texture, mi.alphaScale, cutoff, effectiveSampler(mi.sampler, o)};
+    int32_t id = -1;
+    for (size_t i = 0; i < keys.size() && id < 0; ++i)
+      if (keys[i].texture == k.texture && bitsOf(keys[i].scale) == bitsOf(k.scale) &&
+          bitsOf(keys[i].cutoff) == bitsOf(k.cutoff) && keys[i].sampler == k.sampler)
+        id = int32_t(i);
+    if (id < 0) {
+      id = int32_t(keys.size());
+      keys.push_back(k);
+    }
+    keyOf[m] = id;
+  }
+  // The masks, built in parallel (each on one thread: deterministic).
+  std::vector<AlphaMask> masks(keys.size());
+  {
+    tbb::task_arena arena(o.threads ? int(o.threads) : tbb::task_arena::automatic);
+    arena.execute([&] {
+      tbb::parallel_for(size_t(0), keys.size(), [&](size_t i) {
+        const MaskKey& k = keys[i];
+        masks[i] = AlphaMask(in.textures[k.texture], k.sampler, k.cutoff, k.scale);
+      });
+    });
+  }
+  for (uint32_t m = 0; m < in.materialCount; ++m)
+    if (keyOf[m] >= 0) {
+      ci.plans[m].mask = &masks[size_t(keyOf[m])];
+      ci.plans[m].maskId = uint32_t(keyOf[m]);
+    }
+  auto r = bakeCore(ci, o);
+  if (!r) return r;
+  r->masks = masks.size();
+  for (const AlphaMask& m : masks) r->maskBytes += m.memoryBytes();
+  return r;
+}
+
+Result<SceneBake> bakeScene(const Scene& scene, const BakeOptions& o) {
+  std::vector<TextureView> textures;
+  std::vector<const AlphaTexture*> seen;
+  std::vector<MaterialInput> materials(scene.materials.size());
+  for (size_t m = 0; m < scene.materials.size(); ++m) {
+    const Material& sm = scene.materials[m];
+    MaterialInput& mi = materials[m];
+    mi.name = sm.name.c_str();
+    mi.alpha = sm.alphaMode == AlphaMode::Opaque  ? MaterialAlpha::Opaque
+               : sm.alphaMode == AlphaMode::Blend ? MaterialAlpha::Blend
+                                                  : MaterialAlpha::Tested;
+    mi.cutoff = sm.alphaCutoff;
+    mi.sampler = sm.sampler;
+    mi.constantAlpha = sm.baseColorFactor[3];
+    if (sm.alpha && sm.alphaMode != AlphaMode::Opaque) {
+      if (Status s = validateAlphaTexture(sm); !s) return s.error();
+      const auto it = std::find(seen.begin(), seen.end(), sm.alpha.get());
+      if (it != seen.end()) {
+        mi.texture = int32_t(it - seen.begin());
+      } else {
+        mi.texture = int32_t(seen.size());
+        seen.push_back(sm.alpha.get());
+        TextureView v;
+        v.data = sm.alpha->alpha.data();
+        v.width = sm.alpha->width;
+        v.height = sm.alpha->height;
+        v.format = TexelFormat::R32F;
+        v.name = sm.alphaSource.c_str();
+        textures.push_back(v);
+      }
+    }
+  }
+  std::vector<GeometryInput> geometries;
+  for (size_t g = 0; g < scene.geometries.size(); ++g) {
+    const Geometry& sg = scene.geometries[g];
+    const bool textured = sg.material < scene.materials.size() &&
+                          scene.materials[sg.material].alphaMode != AlphaMode::Opaque &&
+                          scene.materials[sg.material].alpha;
+    if (Status s = validateGeometryLegacy(sg, textured); !s)
+      return makeError(s.error().code, "geometry " + std::to_string(g) + " " + s.error().message.substr(9));
+    geometries.push_back(viewOf(sg, sg.material));
+  }
+  BakeInputs in;
+  in.textures = textures.data();
+  in.textureCount = uint32_t(textures.size());
+  in.materials = materials.data();
+  in.materialCount = uint32_t(materials.size());
+  in.geometries = geometries.data();
+  in.geometryCount = uint32_t(geometries.size());
+  return bakeScene(in, o);
 }
 
 Result<BakedGeometry> bakeGeometry(const Geometry& geometry, const Material& material,
                                    const BakeOptions& options) {
   const bool textured = material.alphaMode != AlphaMode::Opaque && material.alpha;
   if (!textured) return bakeGeometry(geometry, material, nullptr, options);
-  if (Status s = validateTexture(material); !s) return s.error();
-  const AlphaMask mask(*material.alpha, effectiveSampler(material, options),
-                       effectiveCutoff(material, options));
+  if (Status s = validateAlphaTexture(material); !s) return s.error();
+  const AlphaMask mask(*material.alpha, effectiveSampler(material.sampler, options),
+                       options.cutoff ? *options.cutoff : material.alphaCutoff);
   return bakeGeometry(geometry, material, &mask, options);
 }
 
 Result<BakedGeometry> bakeGeometry(const Geometry& geometry, const Material& material, const AlphaMask* mask,
                                    const BakeOptions& options) {
-  const auto t0 = std::chrono::steady_clock::now();
   if (Status s = validateBakeOptions(options); !s) return s.error();
   const bool textured = material.alphaMode != AlphaMode::Opaque && material.alpha;
   if (textured && !mask)
     return makeError(ErrorCode::InvalidArgument, "material '" + material.name + "': no prepared alpha mask");
-  if (Status s = validateGeometry(geometry, textured); !s) return s.error();
-
+  if (Status s = validateGeometryLegacy(geometry, textured); !s) return s.error();
+  BakeInputs in;
+  const GeometryInput gi = viewOf(geometry, 0);
+  in.geometries = &gi;
+  in.geometryCount = 1;
+  CoreInputs ci{in, std::vector<MaterialPlan>(1)};
+  MaterialPlan& plan = ci.plans[0];
+  if (textured) {
+    plan.mask = mask;
+  } else if (material.alphaMode != AlphaMode::Opaque) {
+    // A constant alpha: one state for every point of every triangle.
+    plan.state = alphaTestPasses(material.baseColorFactor[3], options.cutoff ? *options.cutoff : material.alphaCutoff)
+                     ? State::Opaque
+                     : State::Transparent;
+  }
+  BakeOptions o = options;
+  o.layout = ArrayLayout::SceneWide;
+  auto r = bakeCore(ci, o);
+  if (!r) {
+    std::string msg = r.error().message;
+    if (msg.rfind("geometry 0", 0) == 0) msg = "geometry '" + geometry.name + "'" + msg.substr(msg.find(':'));
+    return makeError(r.error().code, msg);
+  }
   BakedGeometry out;
-  const uint32_t n = geometry.triangleCount();
-  if (!textured) {
-    // Not alpha-tested, or a constant alpha: one state for every point of every triangle.
-    State s = State::Opaque;
-    if (material.alphaMode != AlphaMode::Opaque)
-      s = alphaTestPasses(material.baseColorFactor[3], effectiveCutoff(material, options))
-              ? State::Opaque
-              : State::Transparent;
-    OmmArrayBuilder builder;
-    for (uint32_t t = 0; t < n; ++t) builder.addSpecial(s);
-    out.array = builder.finish();
-    out.levels.assign(n, 0);
-    out.stats.microTriangles = n;
-    finishStats(out);
-    if (options.progress) options.progress(1.0);
-    out.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    return out;
-  }
-
-  tbb::task_arena arena(options.threads ? int(options.threads) : tbb::task_arena::automatic);
-  const std::vector<uint8_t> levels = chooseLevels(geometry, *mask, options);
-  const uint32_t top = levels.empty() ? 0 : *std::max_element(levels.begin(), levels.end());
-  // With maxBytes, re-bakes may follow: pass k reports within [1 − 2^−k, 1 − 2^−(k+1)], so progress stays
-  // monotone.
-  double span = options.maxBytes > 0 ? 0.5 : 1.0, base = 0;
-  bakeAll(geometry, *mask, levels, kMaxLevel, options, arena, out, base, span);
-  out.stats.levelCap = kMaxLevel;
-  if (options.maxBytes > 0) {
-    // Lower the largest maps (the highest levels) one level at a time until the data fits. Level 0 always
-    // fits: a one-state map is uniform and becomes a special index.
-    for (uint32_t cap = top; out.array.data.size() > options.maxBytes && cap-- > 0;) {
-      base += span;
-      span *= 0.5;
-      bakeAll(geometry, *mask, levels, cap, options, arena, out, base, span);
-      out.stats.levelCap = cap;
-    }
-  }
-  if (options.progress && span != 1.0) options.progress(1.0);
-  finishStats(out);
-  out.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  out.array = std::move(r->micromaps.arrays[0]);
+  out.stats = r->geometries[0].stats;
+  out.levels = std::move(r->geometries[0].levels);
   return out;
 }
 
@@ -721,9 +1306,9 @@ Result<BakeEstimate> estimateBake(const Geometry& geometry, const Material& mate
   if (Status s = validateBakeOptions(options); !s) return s.error();
   const bool textured = material.alphaMode != AlphaMode::Opaque && material.alpha;
   if (textured) {
-    if (Status s = validateTexture(material); !s) return s.error();
+    if (Status s = validateAlphaTexture(material); !s) return s.error();
   }
-  if (Status s = validateGeometry(geometry, textured); !s) return s.error();
+  if (Status s = validateGeometryLegacy(geometry, textured); !s) return s.error();
   BakeEstimate e;
   const uint32_t n = geometry.triangleCount();
   e.triangles = n;
@@ -731,10 +1316,19 @@ Result<BakeEstimate> estimateBake(const Geometry& geometry, const Material& mate
     e.microTriangles = n;
     return e;
   }
+  const size_t vertices = geometry.uvs.size() / 2;
+  for (uint32_t i : geometry.indices)
+    if (i >= vertices)
+      return makeError(ErrorCode::InvalidArgument, "geometry '" + geometry.name + "': index " + std::to_string(i) +
+                                                       " out of range (" + std::to_string(vertices) +
+                                                       " vertices with UVs)");
   const AlphaTexture& tex = *material.alpha;
+  auto uvOf = [&](uint32_t v) {
+    return std::array<float, 2>{geometry.uvs[2 * size_t(v)], geometry.uvs[2 * size_t(v) + 1]};
+  };
   for (uint32_t t = 0; t < n; ++t) {
-    const auto a = uvOf(geometry, geometry.indices[3 * t]), b = uvOf(geometry, geometry.indices[3 * t + 1]),
-               c = uvOf(geometry, geometry.indices[3 * t + 2]);
+    const auto a = uvOf(geometry.indices[3 * t]), b = uvOf(geometry.indices[3 * t + 1]),
+               c = uvOf(geometry.indices[3 * t + 2]);
     const uint32_t level =
         options.texelsPerMicroTri > 0
             ? adaptiveLevel(a, b, c, tex.width, tex.height, options.texelsPerMicroTri, options.maxLevel)

@@ -1137,7 +1137,7 @@ std::vector<uint8_t> EncodedArray::serialize() const {
   return out;
 }
 
-Result<EncodedArray> EncodedArray::parse(std::span<const uint8_t> bytes, std::string_view what) {
+Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_view what) {
   const std::string prefix = std::string(what) + ": ";
   auto bad = [&](const std::string& msg) { return makeError(ErrorCode::CorruptFile, prefix + msg); };
   if (bytes.size() < encode::kArrayHeaderBytes) return bad("encoded array header is truncated");

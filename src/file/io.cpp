@@ -28,7 +28,7 @@ std::string directoryOf(const std::string& path) {
 
 }  // namespace
 
-Status writeFileAtomically(const std::string& path, std::span<const uint8_t> bytes) {
+Status writeFileAtomically(const std::string& path, Span<const uint8_t> bytes) {
   if (path.empty()) return makeError(ErrorCode::InvalidArgument, "empty output path");
   if (!path.empty() && path.back() == '/')
     return makeError(ErrorCode::InvalidArgument, path + ": is a directory name");

@@ -2,6 +2,7 @@
 // The .somm container (docs/somm-format.md).
 #include "somm/somm_file.h"
 
+#include <span>
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -492,7 +493,7 @@ Result<std::vector<uint8_t>> serializeSomm(const SommFile& f) {
   return std::move(w.out);
 }
 
-Result<SommFile> parseSomm(std::span<const uint8_t> bytes, std::string_view nameView) {
+Result<SommFile> parseSomm(Span<const uint8_t> bytes, std::string_view nameView) {
   const std::string name(nameView);
   auto err = [&](ErrorCode code, const std::string& m) -> Error { return makeError(code, name + ": " + m); };
   const uint8_t* p = bytes.data();

@@ -15,6 +15,7 @@ const char* errorCodeName(ErrorCode code) noexcept {
     case ErrorCode::CorruptFile: return "corrupt file";
     case ErrorCode::UnsupportedFormat: return "unsupported format";
     case ErrorCode::LimitExceeded: return "limit exceeded";
+    case ErrorCode::Cancelled: return "cancelled";
   }
   return "error";
 }

@@ -92,10 +92,13 @@ void OmmArrayBuilder::grow() {
 }
 
 int32_t OmmArrayBuilder::add(const Micromap& map) {
-  if (auto u = map.uniformState()) {
-    addSpecial(*u);
-    return array_.indices.back();
-  }
+  const int32_t id = intern(map);
+  array_.indices.push_back(id);
+  return id;
+}
+
+int32_t OmmArrayBuilder::intern(const Micromap& map) {
+  if (auto u = map.uniformState()) return specialIndexFor(*u);
   const uint64_t h = hashMap(map);
   auto& bucket = buckets_[h & (buckets_.size() - 1)];
   const auto bytes = map.bytes();
@@ -103,22 +106,19 @@ int32_t OmmArrayBuilder::add(const Micromap& map) {
     if (s.hash != h) continue;
     const TriangleDescriptor& d = array_.descriptors[size_t(s.descriptor)];
     if (d.subdivisionLevel == map.level() && d.format == uint16_t(map.format()) &&
-        std::memcmp(array_.data.data() + d.dataOffset, bytes.data(), bytes.size()) == 0) {
-      array_.indices.push_back(s.descriptor);
+        std::memcmp(array_.data.data() + d.dataOffset, bytes.data(), bytes.size()) == 0)
       return s.descriptor;
-    }
   }
   const int32_t id = int32_t(array_.descriptors.size());
   array_.descriptors.push_back(
       TriangleDescriptor{uint32_t(array_.data.size()), uint16_t(map.level()), uint16_t(map.format())});
   array_.data.insert(array_.data.end(), bytes.begin(), bytes.end());
   bucket.push_back(Slot{h, id});
-  array_.indices.push_back(id);
   if (++uniqueCount_ > buckets_.size() * 2) grow();
   return id;
 }
 
-UsageHistograms countUsage(std::span<const TriangleDescriptor> descriptors, std::span<const int32_t> indices) {
+UsageHistograms countUsage(Span<const TriangleDescriptor> descriptors, Span<const int32_t> indices) {
   auto bump = [](std::vector<UsageCount>& hist, const TriangleDescriptor& d) {
     auto it = std::find_if(hist.begin(), hist.end(), [&](const UsageCount& c) {
       return c.subdivisionLevel == d.subdivisionLevel && c.format == d.format;
@@ -169,7 +169,7 @@ Micromap mapOf(const OmmArray& a, int32_t descriptor) {
 
 std::vector<UsageCount> SceneMicromaps::triangleHistogram(uint32_t g) const {
   const OmmArray& a = arrayOf(g);
-  return countUsage(a.descriptors, std::span<const int32_t>(indices(g), geometries[g].triangleCount)).triangles;
+  return countUsage(a.descriptors, Span<const int32_t>(indices(g), geometries[g].triangleCount)).triangles;
 }
 
 OmmArray SceneMicromaps::standalone(uint32_t g) const {

@@ -3,6 +3,7 @@
 // round trips, and the validating parser against corrupt bytes.
 #include "somm/encode.h"
 
+#include <span>
 #include <gtest/gtest.h>
 
 #include <cmath>

@@ -72,6 +72,16 @@ class Progress {
   std::chrono::steady_clock::time_point t0_, last_;
 };
 
+// A library message names BakeOptions fields ("level 13 is out of range (0..12)"); the CLI names its flags.
+std::string flagNames(const std::string& message) {
+  static const std::pair<const char*, const char*> kFlags[] = {
+      {"level ", "--level "},         {"maxLevel ", "--max-level "}, {"texelsPerMicroTri ", "--texels-per-microtri "},
+      {"format ", "--format "},       {"cutoff ", "--cutoff "},      {"unknownAs ", "--unknown-as "}};
+  for (const auto& [field, flag] : kFlags)
+    if (message.rfind(field, 0) == 0) return flag + message.substr(std::string(field).size());
+  return message;
+}
+
 int run(const Options& o) {
   using namespace somm::cli;
   std::vector<somm::Encoding> encodings;
@@ -113,7 +123,7 @@ int run(const Options& o) {
                                                 : somm::UnknownAs::Majority;
   bo.maxBytes = o.maxBytes;
   bo.threads = o.threads;
-  if (somm::Status s = somm::validateBakeOptions(bo); !s) return usage(s.error().message);
+  if (somm::Status s = somm::validateBakeOptions(bo); !s) return usage(flagNames(s.error().message));
 
   // ---- scene ----
   somm::LoadOptions lo;
@@ -203,88 +213,42 @@ int run(const Options& o) {
   const bool sceneArray = o.arrays == "scene";
 
   Progress progress;
-  std::vector<somm::OmmArray> perGeometry;
-  // Bakes every geometry with levels capped at `cap` into file.geometries and perGeometry; false (after printing
-  // the error) on failure.
-  auto bakeScene = [&](uint32_t cap, double progressFrom, double progressSpan) -> bool {
-    somm::BakeOptions capped = bo;
-    capped.level = std::min(bo.level, cap);
-    capped.maxLevel = std::min(bo.maxLevel, cap);
-    capped.maxBytes = 0;  // the scene-wide limit is applied here, over all geometries
-    file.geometries.clear();
-    perGeometry.clear();
-    uint64_t done = 0;
-    for (size_t gi = 0; gi < scene->geometries.size(); ++gi) {
-      const somm::Geometry& g = scene->geometries[gi];
-      const somm::Material& m = scene->materials[g.material];
-      const uint32_t n = g.triangleCount();
-      somm::GeometryInfo info;
-      somm::OmmArray array;
-      info.name = g.name;
-      info.material = m.name;
-      info.triangleCount = n;
-      info.format = bo.format;
-      info.cutoff = bo.cutoff.value_or(m.alphaCutoff);
-      info.sampler = m.sampler;
-      if (bo.filter) info.sampler.filter = *bo.filter;
-      if (m.alphaMode == somm::AlphaMode::Blend) {
-        // BLEND without --blend-as-mask is not alpha-tested: no micromaps, every triangle unknown (the
-        // renderer's any-hit shader decides, as without OMMs).
-        somm::OmmArrayBuilder b;
-        for (uint32_t t = 0; t < n; ++t) b.addSpecial(somm::State::UnknownOpaque);
-        array = b.finish();
-        info.stats.microTriangles = n;
-        info.stats.unknownMicroTriangles = n;
-      } else {
-        capped.progress = [&](double f) {
-          progress.update(progressFrom + progressSpan * (double(done) + f * n) /
-                                             double(std::max<uint64_t>(1, totalTriangles)));
-        };
-        auto baked = somm::bakeGeometry(g, m, capped);
-        if (!baked) {
-          progress.finish();
-          printError("bake", o.scene + ": geometry " + std::to_string(gi) + " '" + g.name +
-                                 "': " + baked.error().message);
-          return false;
-        }
-        array = std::move(baked->array);
-        info.stats.microTriangles = baked->stats.microTriangles;
-        info.stats.unknownMicroTriangles = baked->stats.unknownMicroTriangles;
-        info.stats.invalidUvTriangles = baked->stats.nonFiniteUvTriangles;
-        uint32_t lo = somm::kMaxLevel, hi = 0;
-        for (uint8_t l : baked->levels) lo = std::min<uint32_t>(lo, l), hi = std::max<uint32_t>(hi, l);
-        for (const somm::TriangleDescriptor& d : array.descriptors)
-          lo = std::min<uint32_t>(lo, d.subdivisionLevel), hi = std::max<uint32_t>(hi, d.subdivisionLevel);
-        info.minLevel = lo <= hi ? lo : 0;
-        info.maxLevel = lo <= hi ? hi : 0;
-      }
-      done += n;
-      perGeometry.push_back(std::move(array));
-      file.geometries.push_back(std::move(info));
-    }
-    // The layout: one scene-wide array (identical maps of all geometries stored once) or one per geometry.
-    file.micromaps = somm::perGeometryMicromaps(std::move(perGeometry));
-    perGeometry.clear();
-    if (sceneArray) file.micromaps = somm::mergeToSceneArray(file.micromaps);
-    file.encodings.assign(file.micromaps.arrays.size(), {});
-    return true;
-  };
-  auto dataBytes = [&] {
-    uint64_t b = 0;
-    for (const somm::OmmArray& a : file.micromaps.arrays) b += a.data.size();
-    return b;
-  };
-  uint32_t cap = somm::kMaxLevel;
-  if (!bakeScene(cap, 0.0, 1.0)) return kExitFailure;
-  if (o.maxBytes > 0 && dataBytes() > o.maxBytes) {
-    // --max-bytes: lower a scene-wide level cap one step at a time (the largest maps first) until the data of
-    // all arrays fits. Level 0 always fits (one-state maps are special indices).
-    uint32_t top = 0;
-    for (const somm::GeometryInfo& g : file.geometries) top = std::max(top, g.maxLevel);
-    for (cap = top; dataBytes() > o.maxBytes && cap-- > 0;)
-      if (!bakeScene(cap, 0.0, 1.0)) return kExitFailure;
-    file.bakeOptions.emplace_back("level_cap", std::to_string(cap));
+  // One scene-wide bake in the library (masks shared, identical triangles classified once, --max-bytes over all
+  // geometries). BLEND materials (without --blend-as-mask, which the loader applied) are not alpha-tested: no
+  // micromaps, every triangle unknown (the renderer's any-hit shader decides, as without OMMs).
+  somm::BakeOptions sbo = bo;
+  sbo.layout = sceneArray ? somm::ArrayLayout::SceneWide : somm::ArrayLayout::PerGeometry;
+  sbo.blend = somm::BlendAs::Unknown;
+  sbo.progress = [&](double f) { progress.update(f); };
+  auto baked = somm::bakeScene(*scene, sbo);
+  if (!baked) {
+    progress.finish();
+    printError("bake", o.scene + ": " + baked.error().message);
+    return kExitFailure;
   }
+  for (size_t gi = 0; gi < scene->geometries.size(); ++gi) {
+    const somm::Geometry& g = scene->geometries[gi];
+    const somm::Material& m = scene->materials[g.material];
+    const somm::GeometryBake& gb = baked->geometries[gi];
+    somm::GeometryInfo info;
+    info.name = g.name;
+    info.material = m.name;
+    info.triangleCount = g.triangleCount();
+    info.format = bo.format;
+    info.cutoff = bo.cutoff.value_or(m.alphaCutoff);
+    info.sampler = m.sampler;
+    if (bo.filter) info.sampler.filter = *bo.filter;
+    info.stats.microTriangles = gb.stats.microTriangles;
+    info.stats.unknownMicroTriangles = gb.stats.unknownMicroTriangles;
+    info.stats.invalidUvTriangles = gb.stats.nonFiniteUvTriangles;
+    info.minLevel = gb.stats.minLevel;
+    info.maxLevel = gb.stats.maxLevel;
+    file.geometries.push_back(std::move(info));
+  }
+  file.micromaps = std::move(baked->micromaps);
+  file.encodings.assign(file.micromaps.arrays.size(), {});
+  if (baked->total.levelCap < somm::kMaxLevel)
+    file.bakeOptions.emplace_back("level_cap", std::to_string(baked->total.levelCap));
   progress.finish();
   if (!encodings.empty()) {
     std::string names;

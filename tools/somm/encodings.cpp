@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "encodings.h"
 
+#include <span>
 #include <lzma.h>
 #include <zstd.h>
 

@@ -1,0 +1,320 @@
+// SPDX-License-Identifier: MIT
+// C API bake: memory views → Geometry / Material → bakeGeometry, with the scene-level policy of `somm bake`
+// (tools/somm/cmd_bake.cpp): BLEND triangles unknown-opaque unless baked as masks, the scene-wide byte budget by
+// lowering a global level cap one step at a time. Output is byte-identical to the CLI's for the same input.
+#include "bake_views.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <string>
+
+#include "somm/bake.h"
+#include "somm/scene.h"
+
+namespace somm::capi {
+namespace {
+
+Error invalid(const std::string& m) { return makeError(ErrorCode::InvalidArgument, m); }
+
+uint32_t texelBytes(somm_texel_format f) {
+  switch (f) {
+    case SOMM_TEXEL_R8: return 1;
+    case SOMM_TEXEL_RG8: return 2;
+    case SOMM_TEXEL_RGBA8: return 4;
+    case SOMM_TEXEL_R16: return 2;
+    case SOMM_TEXEL_RGBA16: return 8;
+    case SOMM_TEXEL_R32F: return 4;
+  }
+  return 0;
+}
+uint32_t channels(somm_texel_format f) {
+  switch (f) {
+    case SOMM_TEXEL_R8: case SOMM_TEXEL_R16: case SOMM_TEXEL_R32F: return 1;
+    case SOMM_TEXEL_RG8: return 2;
+    case SOMM_TEXEL_RGBA8: case SOMM_TEXEL_RGBA16: return 4;
+  }
+  return 0;
+}
+
+// Alpha as the scene loaders compute it (src/scene/image_io.cpp): unorm v / (2^bits − 1) in double, then float.
+Result<std::shared_ptr<const AlphaTexture>> convertTexture(const somm_texture& t, const std::string& what) {
+  const uint32_t tb = texelBytes(t.format);
+  if (tb == 0) return invalid(what + ".format " + std::to_string(int(t.format)) + " is not a somm_texel_format");
+  if (t.alpha_channel >= channels(t.format))
+    return invalid(what + ".alpha_channel " + std::to_string(t.alpha_channel) + " is out of range for a " +
+                   std::to_string(channels(t.format)) + "-channel format");
+  if (t.width == 0 || t.height == 0) return invalid(what + ": empty texture (" + std::to_string(t.width) + "x" +
+                                                    std::to_string(t.height) + ")");
+  if (uint64_t(t.width) * t.height >= (uint64_t(1) << 32))
+    return makeError(ErrorCode::LimitExceeded, what + ": texture too large");
+  if (!t.data) return invalid(what + ".data is NULL");
+  const uint64_t rowBytes = uint64_t(t.width) * tb;
+  const uint64_t pitch = t.row_pitch ? t.row_pitch : rowBytes;
+  if (pitch < rowBytes)
+    return invalid(what + ".row_pitch " + std::to_string(pitch) + " is less than a row (" + std::to_string(rowBytes) +
+                   " bytes)");
+  const uint64_t need = (uint64_t(t.height) - 1) * pitch + rowBytes;
+  if (uint64_t(t.size) < need)
+    return invalid(what + ".size " + std::to_string(t.size) + " is less than the " + std::to_string(need) +
+                   " bytes the texture needs");
+  auto out = std::make_shared<AlphaTexture>();
+  out->width = t.width;
+  out->height = t.height;
+  out->alpha.resize(size_t(t.width) * t.height);
+  const auto* base = static_cast<const unsigned char*>(t.data);
+  const uint32_t c = t.alpha_channel;
+  for (uint32_t y = 0; y < t.height; ++y) {
+    const unsigned char* row = base + size_t(y) * pitch;
+    float* dst = out->alpha.data() + size_t(y) * t.width;
+    for (uint32_t x = 0; x < t.width; ++x) {
+      const unsigned char* p = row + size_t(x) * tb;
+      float a = 0;
+      switch (t.format) {
+        case SOMM_TEXEL_R8: case SOMM_TEXEL_RG8: case SOMM_TEXEL_RGBA8:
+          a = float(double(p[c]) / 255.0);
+          break;
+        case SOMM_TEXEL_R16: case SOMM_TEXEL_RGBA16: {
+          uint16_t v;
+          std::memcpy(&v, p + 2 * c, 2);
+          a = float(double(v) / 65535.0);
+          break;
+        }
+        case SOMM_TEXEL_R32F: {
+          std::memcpy(&a, p, 4);
+          if (std::isnan(a))
+            return invalid(what + ": texel (" + std::to_string(x) + ", " + std::to_string(y) + ") is NaN");
+          a = std::clamp(a, 0.0f, 1.0f);
+          break;
+        }
+      }
+      dst[x] = a;
+    }
+  }
+  return std::shared_ptr<const AlphaTexture>(std::move(out));
+}
+
+Result<Sampler> convertSampler(const somm_sampler& s, const std::string& what) {
+  if (s.filter != SOMM_FILTER_NEAREST && s.filter != SOMM_FILTER_LINEAR)
+    return invalid(what + ".filter " + std::to_string(int(s.filter)) + " is not a somm_filter");
+  for (somm_wrap w : {s.wrap_s, s.wrap_t})
+    if (w != SOMM_WRAP_REPEAT && w != SOMM_WRAP_CLAMP_TO_EDGE && w != SOMM_WRAP_MIRRORED_REPEAT)
+      return invalid(what + ": wrap mode " + std::to_string(int(w)) + " is not a somm_wrap");
+  Sampler out;
+  out.filter = Filter(s.filter);
+  out.wrapS = Wrap(s.wrap_s);
+  out.wrapT = Wrap(s.wrap_t);
+  return out;
+}
+
+Result<Material> convertMaterial(const somm_material& m, uint32_t index, const somm_bake_options& o) {
+  const std::string what = "materials[" + std::to_string(index) + "]";
+  Material out;
+  out.name = std::to_string(index);
+  switch (m.alpha_mode) {
+    case SOMM_ALPHA_OPAQUE: out.alphaMode = AlphaMode::Opaque; break;
+    case SOMM_ALPHA_MASK: out.alphaMode = AlphaMode::Mask; break;
+    case SOMM_ALPHA_BLEND:
+      out.alphaMode = o.blend == SOMM_BLEND_AS_MASK ? AlphaMode::Mask : AlphaMode::Blend;
+      break;
+    default:
+      return invalid(what + ".alpha_mode " + std::to_string(int(m.alpha_mode)) + " is not a somm_alpha_mode");
+  }
+  if (!(m.cutoff >= 0.0f && m.cutoff <= 1.0f))
+    return invalid(what + ".cutoff must be a number in [0, 1]");
+  out.alphaCutoff = m.cutoff;
+  auto smp = convertSampler(m.sampler, what + ".sampler");
+  if (!smp) return smp.error();
+  out.sampler = *smp;
+  if (out.alphaMode == AlphaMode::Opaque) return out;
+  if (m.texture) {
+    auto tex = convertTexture(*m.texture, what + ".texture");
+    if (!tex) return tex.error();
+    out.alpha = *tex;
+  } else {
+    if (!(m.constant_alpha >= 0.0f && m.constant_alpha <= 1.0f))
+      return invalid(what + ".constant_alpha must be a number in [0, 1]");
+    out.baseColorFactor[3] = m.constant_alpha;
+  }
+  return out;
+}
+
+Result<Geometry> convertGeometry(const somm_geometry& g, uint32_t index, bool needUvs) {
+  const std::string what = "geometries[" + std::to_string(index) + "]";
+  Geometry out;
+  out.name = std::to_string(index);
+  out.material = g.material;
+  const uint64_t n = g.triangle_count;
+  out.indices.resize(size_t(3 * n));
+  switch (g.index_type) {
+    case SOMM_INDEX_NONE:
+      if (uint64_t(g.vertex_count) < 3 * n)
+        return invalid(what + ": " + std::to_string(n) + " non-indexed triangles need " + std::to_string(3 * n) +
+                       " vertices, vertex_count is " + std::to_string(g.vertex_count));
+      for (uint64_t i = 0; i < 3 * n; ++i) out.indices[size_t(i)] = uint32_t(i);
+      break;
+    case SOMM_INDEX_UINT16:
+    case SOMM_INDEX_UINT32: {
+      if (n && !g.indices) return invalid(what + ".indices is NULL");
+      const auto* p = static_cast<const unsigned char*>(g.indices);
+      for (uint64_t i = 0; i < 3 * n; ++i) {
+        uint32_t v;
+        if (g.index_type == SOMM_INDEX_UINT16) {
+          uint16_t s;
+          std::memcpy(&s, p + 2 * i, 2);
+          v = s;
+        } else {
+          std::memcpy(&v, p + 4 * i, 4);
+        }
+        if (v >= g.vertex_count)
+          return invalid(what + ": index " + std::to_string(v) + " of triangle " + std::to_string(i / 3) +
+                         " is out of range (vertex_count " + std::to_string(g.vertex_count) + ")");
+        out.indices[size_t(i)] = v;
+      }
+      break;
+    }
+    default:
+      return invalid(what + ".index_type " + std::to_string(int(g.index_type)) + " is not a somm_index_type");
+  }
+  if (!needUvs) return out;
+  const size_t stride = g.uv_stride ? g.uv_stride : 2 * sizeof(float);
+  if (stride < 2 * sizeof(float))
+    return invalid(what + ".uv_stride " + std::to_string(stride) + " is less than two floats");
+  if (g.vertex_count && !g.uvs) return invalid(what + ".uvs is NULL");
+  out.uvs.resize(size_t(2) * g.vertex_count);
+  const auto* uv = reinterpret_cast<const unsigned char*>(g.uvs);
+  for (uint32_t v = 0; v < g.vertex_count; ++v) std::memcpy(&out.uvs[2 * size_t(v)], uv + size_t(v) * stride, 8);
+  return out;
+}
+
+Status validateOptions(const somm_bake_options& o) {
+  if (o.level > kMaxLevel)
+    return invalid("options.level " + std::to_string(o.level) + " is out of range 0..12");
+  if (o.max_level > kMaxLevel)
+    return invalid("options.max_level " + std::to_string(o.max_level) + " is out of range 0..12");
+  if (!(o.texels_per_micro_triangle >= 0.0f) || !std::isfinite(o.texels_per_micro_triangle))
+    return invalid("options.texels_per_micro_triangle must be a finite number >= 0");
+  if (o.format != SOMM_FORMAT_2_STATE && o.format != SOMM_FORMAT_4_STATE)
+    return invalid("options.format " + std::to_string(int(o.format)) + " is not a somm_format");
+  if (o.unknown_as != SOMM_UNKNOWN_AS_MAJORITY && o.unknown_as != SOMM_UNKNOWN_AS_OPAQUE &&
+      o.unknown_as != SOMM_UNKNOWN_AS_TRANSPARENT)
+    return invalid("options.unknown_as " + std::to_string(int(o.unknown_as)) + " is not a somm_unknown_as");
+  if (o.blend != SOMM_BLEND_UNKNOWN && o.blend != SOMM_BLEND_AS_MASK)
+    return invalid("options.blend " + std::to_string(int(o.blend)) + " is not a somm_blend_policy");
+  if (o.layout != SOMM_ARRAY_PER_GEOMETRY && o.layout != SOMM_ARRAY_PER_SCENE)
+    return invalid("options.layout " + std::to_string(int(o.layout)) + " is not a somm_array_layout");
+  return Ok{};
+}
+
+}  // namespace
+
+Result<SceneBake> bakeFromViews(const somm_bake_input& in, const somm_bake_options& o) {
+  if (Status s = validateOptions(o); !s) return s.error();
+  if (in.geometry_count && !in.geometries) return invalid("input.geometries is NULL");
+  if (in.material_count && !in.materials) return invalid("input.materials is NULL");
+
+  std::vector<Material> materials;
+  materials.reserve(in.material_count);
+  for (uint32_t m = 0; m < in.material_count; ++m) {
+    auto r = convertMaterial(in.materials[m], m, o);
+    if (!r) return r.error();
+    materials.push_back(std::move(*r));
+  }
+  std::vector<Geometry> geometries;
+  geometries.reserve(in.geometry_count);
+  uint64_t totalTriangles = 0;
+  for (uint32_t g = 0; g < in.geometry_count; ++g) {
+    const somm_geometry& v = in.geometries[g];
+    if (v.material >= in.material_count)
+      return invalid("geometries[" + std::to_string(g) + "].material " + std::to_string(v.material) +
+                     " is out of range (" + std::to_string(in.material_count) + " materials)");
+    const Material& m = materials[v.material];
+    const bool needUvs = m.alphaMode == AlphaMode::Mask && m.alpha;
+    auto r = convertGeometry(v, g, needUvs);
+    if (!r) return r.error();
+    totalTriangles += r->triangleCount();
+    geometries.push_back(std::move(*r));
+  }
+
+  BakeOptions bo;
+  bo.level = o.level;
+  if (o.texels_per_micro_triangle > 0) {
+    bo.maxLevel = o.max_level;
+    bo.texelsPerMicroTri = o.texels_per_micro_triangle;
+  }
+  bo.format = o.format == SOMM_FORMAT_2_STATE ? Format::TwoState : Format::FourState;
+  bo.unknownAs = UnknownAs(o.unknown_as);
+  bo.threads = o.threads;
+
+  SceneBake out;
+  out.format = bo.format;
+  std::vector<OmmArray> arrays;
+  uint64_t dataBytes = 0;
+  double lastProgress = 0;
+  auto report = [&](double f) {
+    f = std::max(lastProgress, std::min(1.0, f));
+    lastProgress = f;
+    if (o.progress && o.progress(f, o.progress_user) != 0) throw Cancelled{};
+  };
+  // One pass over the scene with levels capped at `cap` (as cmd_bake.cpp's bakeScene).
+  auto bakePass = [&](uint32_t cap) -> Status {
+    BakeOptions capped = bo;
+    capped.level = std::min(bo.level, cap);
+    capped.maxLevel = std::min(bo.maxLevel, cap);
+    arrays.clear();
+    out.geometries.clear();
+    dataBytes = 0;
+    uint64_t done = 0;
+    for (size_t gi = 0; gi < geometries.size(); ++gi) {
+      const Geometry& g = geometries[gi];
+      const Material& m = materials[g.material];
+      const uint32_t n = g.triangleCount();
+      GeometryBakeInfo info;
+      if (m.alphaMode == AlphaMode::Blend) {
+        OmmArrayBuilder b;
+        for (uint32_t t = 0; t < n; ++t) b.addSpecial(State::UnknownOpaque);
+        arrays.push_back(b.finish());
+        info.microTriangles = n;
+        info.unknownMicroTriangles = n;
+      } else {
+        capped.progress = [&](double f) {
+          report((double(done) + f * n) / double(std::max<uint64_t>(1, totalTriangles)));
+        };
+        auto baked = bakeGeometry(g, m, capped);
+        if (!baked) return baked.error();
+        info.microTriangles = baked->stats.microTriangles;
+        info.unknownMicroTriangles = baked->stats.unknownMicroTriangles;
+        info.nonFiniteUvTriangles = baked->stats.nonFiniteUvTriangles;
+        uint32_t lo = kMaxLevel, hi = 0;
+        for (uint8_t l : baked->levels) lo = std::min<uint32_t>(lo, l), hi = std::max<uint32_t>(hi, l);
+        for (const TriangleDescriptor& d : baked->array.descriptors)
+          lo = std::min<uint32_t>(lo, d.subdivisionLevel), hi = std::max<uint32_t>(hi, d.subdivisionLevel);
+        info.minLevel = lo <= hi ? lo : 0;
+        info.maxLevel = lo <= hi ? hi : 0;
+        arrays.push_back(std::move(baked->array));
+      }
+      for (int32_t i : arrays.back().indices)
+        if (isSpecialIndex(i)) ++info.specialCount[size_t(stateOfSpecialIndex(i))];
+      dataBytes += arrays.back().data.size();
+      done += n;
+      out.geometries.push_back(info);
+    }
+    return Ok{};
+  };
+  uint32_t cap = kMaxLevel;
+  if (Status s = bakePass(cap); !s) return s.error();
+  if (o.max_bytes > 0 && dataBytes > o.max_bytes) {
+    uint32_t top = 0;
+    for (const GeometryBakeInfo& g : out.geometries) top = std::max(top, g.maxLevel);
+    for (cap = top; dataBytes > o.max_bytes && cap-- > 0;)
+      if (Status s = bakePass(cap); !s) return s.error();
+  }
+  out.levelCap = cap;
+  report(1.0);
+  out.micromaps = perGeometryMicromaps(std::move(arrays));
+  if (o.layout == SOMM_ARRAY_PER_SCENE) out.micromaps = mergeToSceneArray(out.micromaps);
+  return out;
+}
+
+}  // namespace somm::capi

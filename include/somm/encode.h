@@ -547,7 +547,8 @@ class EncodedArray {
   static Result<EncodedArray> parse(Span<const uint8_t> bytes, std::string_view what = "encoded array");
 
   friend bool operator==(const EncodedArray& a, const EncodedArray& b) {
-    return a.encoding_ == b.encoding_ && a.indexType_ == b.indexType_ && a.indices_ == b.indices_ && a.maps_ == b.maps_ && a.data_ == b.data_ && a.dataBytes_ == b.dataBytes_;
+    return a.encoding_ == b.encoding_ && a.indexType_ == b.indexType_ && a.indices_ == b.indices_ && a.maps_ == b.maps_ && a.data_ == b.data_ && a.dataBytes_ == b.dataBytes_ &&
+           a.hasDirectory_ == b.hasDirectory_ && a.dir_ == b.dir_;
   }
   friend bool operator!=(const EncodedArray& a, const EncodedArray& b) noexcept { return !(a == b); }
 

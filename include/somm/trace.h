@@ -102,6 +102,12 @@ struct Bounds {
   std::array<float, 3> lower{0, 0, 0}, upper{0, 0, 0};
 };
 
+// Per material: true when some triangle of it can fail the alpha test, decided by the library baker's own
+// conservative classification (somm/bake.h: each geometry baked at level 0; a material all of whose triangles
+// bake to the fully-opaque special index can never fail). False for materials that are not alpha-tested. The
+// tracer gives only these materials a filter; the others are opaque geometry. Errors are the baker's.
+Result<std::vector<bool>> materialsThatCanFailAlphaTest(const Scene& scene, uint32_t threads = 0);
+
 class TraceWorld {
  public:
   // Flattens `scene` (which must outlive the world) into world space and opens an Embree device.
@@ -112,6 +118,9 @@ class TraceWorld {
 
   const Scene& scene() const noexcept { return *scene_; }
   const Bounds& bounds() const noexcept { return bounds_; }
+  // Materials traced as alpha-tested (materialsThatCanFailAlphaTest), and their geometries' triangles.
+  uint32_t alphaTestedMaterials() const noexcept { return alphaTestedMaterials_; }
+  uint64_t alphaTestedTriangles() const noexcept { return alphaTestedTriangles_; }
   // The camera used by render: settings override, else the scene's, else framed on the bounds.
   Camera camera(const RenderSettings& settings) const;
 
@@ -122,11 +131,12 @@ class TraceWorld {
   TraceWorld() = default;
   std::shared_ptr<const Scene> scene_;
   Bounds bounds_;
+  uint32_t alphaTestedMaterials_ = 0;
+  uint64_t alphaTestedTriangles_ = 0;
   std::unique_ptr<Impl> impl_;
 };
 
-// Per-geometry micromaps for the Omm methods and state-overlay, indexed like Scene::geometries. Geometries
-// that are not alpha-tested are ignored (an empty OmmArray is fine for them).
+// Per-geometry micromap arrays (bakeSimple's result); tracers take SceneMicromaps (perGeometryMicromaps converts).
 using OmmArrays = std::vector<OmmArray>;
 
 class Tracer {
@@ -155,21 +165,25 @@ Result<std::unique_ptr<Tracer>> makeOpaqueTracer(std::shared_ptr<const TraceWorl
 Result<std::unique_ptr<Tracer>> makeTextureTracer(std::shared_ptr<const TraceWorld> world);
 // Bitmask at grid resolution 2^level × 2^level (2 bits per cell), built with classifyRegion.
 Result<std::unique_ptr<Tracer>> makeBitmaskTracer(std::shared_ptr<const TraceWorld> world, uint32_t level);
-// Flat micromaps (the spec layout). `format` selects the method: TwoState never samples the texture (unknown
-// states are read through toTwoState), FourState tests the texture on unknown states.
+// Flat micromaps (the spec layout), attached with somm/embree.h: special-index triangles leave the filter path
+// (fully transparent: not in the BVH; fully opaque: no filter) unless splitSpecialIndices is false. `format`
+// selects the method: TwoState never samples the texture (bit 0 of the state decides), FourState tests the
+// texture on unknown states. Micromaps of geometries that are not alpha-tested are ignored.
 Result<std::unique_ptr<Tracer>> makeFlatOmmTracer(std::shared_ptr<const TraceWorld> world,
-                                                  std::shared_ptr<const OmmArrays> arrays, Format format);
+                                                  std::shared_ptr<const SceneMicromaps> micromaps, Format format,
+                                                  bool splitSpecialIndices = true);
 // Traced like omm4-flat; visible hits are coloured by the state their micromap gives them.
 Result<std::unique_ptr<Tracer>> makeStateOverlayTracer(std::shared_ptr<const TraceWorld> world,
-                                                       std::shared_ptr<const OmmArrays> arrays);
+                                                       std::shared_ptr<const SceneMicromaps> micromaps);
 
 // Everything a method may need, by format. Methods whose inputs are missing fail with a message.
 struct MicromapSet {
-  std::shared_ptr<const OmmArrays> flat2, flat4;  // per geometry, 2-state and 4-state
-  uint32_t bitmaskLevel = 6;                      // grid 2^level × 2^level (use the micromaps' level)
+  std::shared_ptr<const SceneMicromaps> flat2, flat4;  // 2-state and 4-state
+  uint32_t bitmaskLevel = 6;                           // grid 2^level × 2^level (use the micromaps' level)
+  bool splitSpecialIndices = true;                     // omm methods: see makeFlatOmmTracer
 };
 
-// Any method by spec (state-overlay uses flat4).
+// Any method by spec (state-overlay uses flat4; compressed encodings are built per array of the micromaps).
 Result<std::unique_ptr<Tracer>> makeTracer(std::shared_ptr<const TraceWorld> world, const MethodSpec& method,
                                            const MicromapSet& micromaps);
 

@@ -31,6 +31,7 @@ somm_result codeOf(somm::ErrorCode c) {
     case somm::ErrorCode::CorruptFile: return SOMM_ERROR_CORRUPT;
     case somm::ErrorCode::UnsupportedFormat: return SOMM_ERROR_UNSUPPORTED;
     case somm::ErrorCode::LimitExceeded: return SOMM_ERROR_LIMIT_EXCEEDED;
+    case somm::ErrorCode::Cancelled: return SOMM_ERROR_CANCELLED;
   }
   return SOMM_ERROR_INTERNAL;
 }

@@ -9,6 +9,7 @@
 // UVs are kept as they are.
 #include <tiny_obj_loader.h>
 
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -80,6 +81,13 @@ Result<std::shared_ptr<const RawImage>> ObjLoader::image(const std::string& texn
   return sp;
 }
 
+// Image formats that cannot store an alpha channel (by extension): a missing one cannot change the alpha test.
+bool cannotCarryAlpha(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+  return ext == ".jpg" || ext == ".jpeg";
+}
+
 Status ObjLoader::material(const tinyobj::material_t& tm, Material& m) {
   m.name = tm.name;
   m.doubleSided = true;  // OBJ has no culling information
@@ -94,9 +102,16 @@ Status ObjLoader::material(const tinyobj::material_t& tm, Material& m) {
   std::string kdPath;
   if (!tm.diffuse_texname.empty()) {
     auto r = image(tm.diffuse_texname, m.name, kdPath);
-    if (!r.ok()) return r.error();
-    kd = r.value();
-    m.baseColor = std::make_shared<const ColorImage>(toColorImage(*kd, true));
+    if (r.ok()) {
+      kd = r.value();
+      m.baseColor = std::make_shared<const ColorImage>(toColorImage(*kd, true));
+    } else if (!cannotCarryAlpha(kdPath) || std::filesystem::exists(kdPath)) {
+      return r.error();
+    } else {
+      // A missing JPEG holds no alpha: the material is drawn opaque (untextured), as an engine would.
+      scene_.warnings.push_back("material '" + m.name + "': map_Kd texture '" + kdPath +
+                                "' is missing; a JPEG carries no alpha, so the material is drawn opaque without it");
+    }
   }
   if (!tm.alpha_texname.empty()) {
     std::string dPath;

@@ -15,8 +15,9 @@
 #include <map>
 
 #include "somm/encode.h"
+#include "somm/bake.h"
+#include "somm/embree.h"
 #include "trace_internal.h"
-#define SOMM_TRACE_HAS_ENCODINGS 1
 
 namespace somm {
 
@@ -137,6 +138,22 @@ inline V3 normalize(V3 a) {
 
 }  // namespace
 
+Result<std::vector<bool>> materialsThatCanFailAlphaTest(const Scene& scene, uint32_t threads) {
+  std::vector<bool> canFail(scene.materials.size(), false);
+  BakeOptions o;
+  o.level = 0;
+  o.threads = threads;
+  for (const Geometry& g : scene.geometries) {
+    if (g.material >= scene.materials.size()) continue;
+    const Material& m = scene.materials[g.material];
+    if (!m.alphaTested() || canFail[g.material] || g.triangleCount() == 0) continue;
+    auto baked = bakeGeometry(g, m, o);
+    if (!baked) return baked.error();
+    if (baked->stats.specialCount[size_t(State::Opaque)] != g.triangleCount()) canFail[g.material] = true;
+  }
+  return canFail;
+}
+
 TraceWorld::~TraceWorld() {
   if (impl_ && impl_->device) rtcReleaseDevice(impl_->device);
 }
@@ -150,6 +167,9 @@ Result<std::shared_ptr<const TraceWorld>> TraceWorld::create(std::shared_ptr<con
   im.device = rtcNewDevice(nullptr);
   if (!im.device) return makeError(ErrorCode::UnsupportedFormat, "cannot create an Embree device");
 
+  auto canFail = materialsThatCanFailAlphaTest(*scene);
+  if (!canFail) return makeError(canFail.error().code, where + ": " + canFail.error().message);
+  for (bool f : *canFail) w->alphaTestedMaterials_ += f;
   im.geometries.resize(scene->geometries.size());
   for (size_t g = 0; g < scene->geometries.size(); ++g) {
     const Geometry& geo = scene->geometries[g];
@@ -186,7 +206,8 @@ Result<std::shared_ptr<const TraceWorld>> TraceWorld::create(std::shared_ptr<con
     d.sampler = mat.sampler;
     d.cutoff = mat.alphaCutoff;
     d.constantAlpha = mat.baseColorFactor[3];
-    d.alphaTested = mat.alphaTested();
+    d.alphaTested = (*canFail)[geo.material];
+    if (d.alphaTested) w->alphaTestedTriangles_ += geo.triangleCount();
     d.material = &mat;
   }
 
@@ -258,20 +279,23 @@ Camera TraceWorld::camera(const RenderSettings& settings) const {
   return cam;
 }
 
-// ---- filter functions ----
+// ---- filter functions of the baselines (texture, bitmask); micromap filters are somm/embree.h's ----
 
 namespace detail {
 
-struct TraceContext {
-  RTCIntersectContext rtc;  // first member: Embree hands our context back to the filters
-  TraceCounters* counters;
+// The texture test as the alpha test of somm/embree.h's micromap filters.
+struct TextureAlphaTest {
+  const GeometryData* geometry = nullptr;
+  bool operator()(uint32_t triangle, float u, float v) const noexcept {
+    return textureTest(*geometry, triangle, u, v);
+  }
 };
 
 // One filter function per policy: the same function for intersection and occlusion (idempotent, pure in the
 // hit).
 template <class Policy>
 void filterFunction(const RTCFilterFunctionNArguments* args) noexcept {
-  TraceCounters& c = *reinterpret_cast<const TraceContext*>(args->context)->counters;
+  embree::FilterCounters& c = *reinterpret_cast<const embree::CountingContext*>(args->context)->counters;
   const auto& data = *static_cast<const typename Policy::Data*>(args->geometryUserPtr);
   const unsigned n = args->N;
   for (unsigned i = 0; i < n; ++i) {
@@ -285,7 +309,7 @@ void filterFunction(const RTCFilterFunctionNArguments* args) noexcept {
 
 struct TexturePolicy {
   using Data = GeometryData;
-  static bool accept(const Data& d, uint32_t prim, float u, float v, TraceCounters& c) noexcept {
+  static bool accept(const Data& d, uint32_t prim, float u, float v, embree::FilterCounters& c) noexcept {
     ++c.textureTests;
     return textureTest(d, prim, u, v);
   }
@@ -293,7 +317,7 @@ struct TexturePolicy {
 
 struct BitmaskPolicy {
   using Data = BitmaskData;
-  static bool accept(const Data& d, uint32_t prim, float u, float v, TraceCounters& c) noexcept {
+  static bool accept(const Data& d, uint32_t prim, float u, float v, embree::FilterCounters& c) noexcept {
     ++c.micromapLookups;
     const float n = float(d.n);
     const float fu = u > 0.0f ? u * n : 0.0f, fv = v > 0.0f ? v * n : 0.0f;  // NaN → 0
@@ -307,105 +331,93 @@ struct BitmaskPolicy {
   }
 };
 
-template <bool FourState>
-struct FlatOmmPolicy {
-  using Data = FlatOmmData;
-  static bool accept(const Data& d, uint32_t prim, float u, float v, TraceCounters& c) noexcept {
-    ++c.micromapLookups;
-    const int32_t i = d.indices[prim];
-    State s;
-    if (i < 0) {
-      s = stateOfSpecialIndex(i);
-    } else {
-      const TriangleDescriptor& desc = d.descriptors[i];
-      s = readPackedState(d.data + desc.dataOffset, Format(desc.format),
-                          baryToIndex(u, v, desc.subdivisionLevel));
-    }
-    if constexpr (!FourState) {
-      return (uint8_t(s) & 1u) != 0;
-    } else {
-      if (s == State::Opaque) return true;
-      if (s == State::Transparent) return false;
-      ++c.textureTests;
-      return textureTest(*d.geometry, prim, u, v);
-    }
-  }
-};
-
-#if SOMM_TRACE_HAS_ENCODINGS
-struct EncodedOmmData {
-  const GeometryData* geometry = nullptr;
-  const EncodedArray* array = nullptr;
-  uint32_t firstTriangle = 0;  // the geometry's triangles in the scene-wide array
-};
-
-// Compressed micromaps: the encoding's own inline lookup, fixed at compile time.
-template <Encoding E, bool FourState>
-struct EncodedOmmPolicy {
-  using Data = EncodedOmmData;
-  static bool accept(const Data& d, uint32_t prim, float u, float v, TraceCounters& c) noexcept {
-    ++c.micromapLookups;
-    const State s = d.array->template stateUVAs<E>(d.firstTriangle + prim, u, v);
-    if constexpr (!FourState) {
-      return (uint8_t(s) & 1u) != 0;
-    } else {
-      if (s == State::Opaque) return true;
-      if (s == State::Transparent) return false;
-      ++c.textureTests;
-      return textureTest(*d.geometry, prim, u, v);
-    }
-  }
-};
-#endif
-
 }  // namespace detail
 
 // ---- tracers ----
 
 struct TracerFactory {
-  // Builds the Embree scene: every flattened instance, filters on alpha-tested geometries when `filter` is
-  // set; userData[g] is the filter data of scene geometry g.
-  static Result<std::unique_ptr<Tracer>> build(std::shared_ptr<const TraceWorld> world, std::string name,
-                                               uint64_t bytes, RTCFilterFunctionN filter,
-                                               std::vector<void*> userData,
-                                               std::shared_ptr<const void> keepAlive, MethodKind kind,
-                                               std::shared_ptr<const OmmArrays> overlay) {
+  struct Spec {
+    std::string name;
+    uint64_t bytes = 0;
+    MethodKind kind = MethodKind::Texture;
+    // Baselines: `filter` on alpha-tested geometries, userData[g] = its data for scene geometry g.
+    RTCFilterFunctionN filter = nullptr;
+    std::vector<void*> userData;
+    // Micromap methods: alpha-tested geometries attached with somm/embree.h (encoded[a]: array a's encoding, or
+    // null for flat).
+    std::shared_ptr<const SceneMicromaps> micromaps;
+    std::vector<const EncodedArray*> encoded;
+    bool twoState = false, split = true;
+    std::shared_ptr<const void> keepAlive;
+  };
+
+  static Result<std::unique_ptr<Tracer>> build(std::shared_ptr<const TraceWorld> world, Spec spec) {
     const TraceWorld::Impl& w = world->impl();
     RTCScene scene = rtcNewScene(w.device);
     if (!scene) return makeError(ErrorCode::UnsupportedFormat, "cannot create an Embree scene");
     rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_HIGH);
-    for (size_t id = 0; id < w.flat.size(); ++id) {
-      const detail::FlatGeometry& f = w.flat[id];
+    auto impl = std::make_unique<Tracer::Impl>();
+    auto fail = [&](Error e) -> Result<std::unique_ptr<Tracer>> {
+      rtcReleaseScene(scene);
+      return e;
+    };
+    auto record = [&](unsigned id, uint32_t flat, const uint32_t* triangleOf) {
+      if (id == RTC_INVALID_GEOMETRY_ID) return;
+      if (impl->parts.size() <= id) impl->parts.resize(id + 1);
+      impl->parts[id] = Tracer::Impl::Part{flat, triangleOf};
+    };
+    for (size_t fi = 0; fi < w.flat.size(); ++fi) {
+      const detail::FlatGeometry& f = w.flat[fi];
       const detail::GeometryData& gd = w.geometries[f.geometry];
       const size_t tris = (gd.indices.size() - 4) / 3, verts = (f.positions.size() - 4) / 3;
+      if (spec.micromaps && gd.alphaTested) {
+        embree::TriangleMeshView mesh;
+        mesh.vertices = f.positions.data();
+        mesh.vertexCount = verts;
+        mesh.indices = gd.indices.data();
+        mesh.triangleCount = tris;
+        embree::MicromapSource src;
+        src.micromaps = spec.micromaps.get();
+        src.geometry = f.geometry;
+        src.encoded = spec.encoded.empty() ? nullptr : spec.encoded[spec.micromaps->geometries[f.geometry].array];
+        src.twoState = spec.twoState;
+        embree::AttachOptions ao;
+        ao.splitSpecialIndices = spec.split;
+        ao.countWork = true;
+        auto attached = embree::attachMicromaps(w.device, scene, mesh, src, detail::TextureAlphaTest{&gd}, ao);
+        if (!attached) return fail(attached.error());
+        embree::AttachedGeometry& a = impl->attached.emplace_back(std::move(attached).value());
+        record(a.opaqueId(), uint32_t(fi), a.triangleMap(a.opaqueId()));
+        record(a.filteredId(), uint32_t(fi), a.triangleMap(a.filteredId()));
+        continue;
+      }
       RTCGeometry geom = rtcNewGeometry(w.device, RTC_GEOMETRY_TYPE_TRIANGLE);
       rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, f.positions.data(), 0,
                                  3 * sizeof(float), verts);
       rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, gd.indices.data(), 0,
                                  3 * sizeof(uint32_t), tris);
-      if (filter && gd.alphaTested) {
-        rtcSetGeometryUserData(geom, userData[f.geometry]);
-        rtcSetGeometryIntersectFilterFunction(geom, filter);
-        rtcSetGeometryOccludedFilterFunction(geom, filter);
+      if (spec.filter && gd.alphaTested) {
+        rtcSetGeometryUserData(geom, spec.userData[f.geometry]);
+        rtcSetGeometryIntersectFilterFunction(geom, spec.filter);
+        rtcSetGeometryOccludedFilterFunction(geom, spec.filter);
       }
       rtcCommitGeometry(geom);
-      rtcAttachGeometryByID(scene, geom, unsigned(id));
+      record(rtcAttachGeometry(scene, geom), uint32_t(fi), nullptr);
       rtcReleaseGeometry(geom);
     }
     rtcCommitScene(scene);
-    if (rtcGetDeviceError(w.device) != RTC_ERROR_NONE) {
-      rtcReleaseScene(scene);
-      return makeError(ErrorCode::UnsupportedFormat, "Embree failed to build the scene for method " + name);
-    }
+    if (rtcGetDeviceError(w.device) != RTC_ERROR_NONE)
+      return fail(makeError(ErrorCode::UnsupportedFormat, "Embree failed to build the scene for method " + spec.name));
     std::unique_ptr<Tracer> t(new Tracer());
-    t->name_ = std::move(name);
-    t->bytes_ = bytes;
-    t->impl_ = std::make_unique<Tracer::Impl>();
-    t->impl_->world = std::move(world);
-    t->impl_->scene = scene;
-    t->impl_->keepAlive = std::move(keepAlive);
-    t->impl_->kind = kind;
-    t->impl_->overlay = std::move(overlay);
+    t->name_ = std::move(spec.name);
+    t->bytes_ = spec.bytes;
+    impl->world = std::move(world);
+    impl->scene = scene;
+    impl->keepAlive = std::move(spec.keepAlive);
+    impl->kind = spec.kind;
+    if (spec.kind == MethodKind::StateOverlay) impl->overlay = spec.micromaps;
+    impl->micromaps = std::move(spec.micromaps);
+    t->impl_ = std::move(impl);
     return t;
   }
 };
@@ -415,15 +427,19 @@ Tracer::~Tracer() {
 }
 
 Result<std::unique_ptr<Tracer>> makeOpaqueTracer(std::shared_ptr<const TraceWorld> world) {
-  return TracerFactory::build(std::move(world), "opaque", 0, nullptr, {}, nullptr, MethodKind::Opaque,
-                              nullptr);
+  TracerFactory::Spec spec;
+  spec.name = "opaque";
+  spec.kind = MethodKind::Opaque;
+  return TracerFactory::build(std::move(world), std::move(spec));
 }
 
 Result<std::unique_ptr<Tracer>> makeTextureTracer(std::shared_ptr<const TraceWorld> world) {
-  std::vector<void*> user;
-  for (const auto& g : world->impl().geometries) user.push_back(const_cast<detail::GeometryData*>(&g));
-  return TracerFactory::build(std::move(world), "texture", 0, &detail::filterFunction<detail::TexturePolicy>,
-                              std::move(user), nullptr, MethodKind::Texture, nullptr);
+  TracerFactory::Spec spec;
+  spec.name = "texture";
+  spec.kind = MethodKind::Texture;
+  spec.filter = &detail::filterFunction<detail::TexturePolicy>;
+  for (const auto& g : world->impl().geometries) spec.userData.push_back(const_cast<detail::GeometryData*>(&g));
+  return TracerFactory::build(std::move(world), std::move(spec));
 }
 
 Result<std::unique_ptr<Tracer>> makeBitmaskTracer(std::shared_ptr<const TraceWorld> world, uint32_t level) {
@@ -487,9 +503,14 @@ Result<std::unique_ptr<Tracer>> makeBitmaskTracer(std::shared_ptr<const TraceWor
   }
   std::vector<void*> user;
   for (auto& d : store->data) user.push_back(&d);
-  return TracerFactory::build(std::move(world), "bitmask", bytes,
-                              &detail::filterFunction<detail::BitmaskPolicy>, std::move(user), store,
-                              MethodKind::Bitmask, nullptr);
+  TracerFactory::Spec spec;
+  spec.name = "bitmask";
+  spec.bytes = bytes;
+  spec.kind = MethodKind::Bitmask;
+  spec.filter = &detail::filterFunction<detail::BitmaskPolicy>;
+  spec.userData = std::move(user);
+  spec.keepAlive = store;
+  return TracerFactory::build(std::move(world), std::move(spec));
 }
 
 namespace {
@@ -499,163 +520,79 @@ uint64_t flatBytes(const OmmArray& a) {
          a.indices.size() * (a.indexType() == IndexType::UInt16 ? 2u : 4u);
 }
 
-Status checkArrays(const TraceWorld& world, const OmmArrays& arrays) {
+// The scene-level checks (the per-geometry ones are attachMicromaps's).
+Status checkMicromaps(const TraceWorld& world, const SceneMicromaps& m) {
   const auto& geoms = world.impl().geometries;
-  if (arrays.size() != geoms.size())
-    return makeError(ErrorCode::InvalidArgument, "micromaps for " + std::to_string(arrays.size()) +
-                                                     " geometries, the scene has " +
-                                                     std::to_string(geoms.size()));
+  if (m.geometries.size() != geoms.size())
+    return makeError(ErrorCode::InvalidArgument, "micromaps for " + std::to_string(m.geometries.size()) +
+                                                     " geometries, the scene has " + std::to_string(geoms.size()));
   for (size_t g = 0; g < geoms.size(); ++g) {
     if (!geoms[g].alphaTested) continue;
-    const OmmArray& a = arrays[g];
+    const GeometryMicromaps& r = m.geometries[g];
     const size_t tris = geoms[g].triUVs.size() / 6;
-    if (a.indices.size() != tris)
-      return makeError(ErrorCode::InvalidArgument,
-                       "geometry " + std::to_string(g) + ": micromap index count " +
-                           std::to_string(a.indices.size()) + " != triangle count " + std::to_string(tris));
-    for (int32_t i : a.indices)
-      if (i < -4 || (i >= 0 && size_t(i) >= a.descriptors.size()))
-        return makeError(ErrorCode::InvalidArgument,
-                         "geometry " + std::to_string(g) + ": bad micromap index");
-    for (const auto& d : a.descriptors)
-      if (d.subdivisionLevel > kMaxLevel || !isValidFormat(d.format) ||
-          uint64_t(d.dataOffset) + micromapDataBytes(d.subdivisionLevel, Format(d.format)) > a.data.size())
-        return makeError(ErrorCode::InvalidArgument,
-                         "geometry " + std::to_string(g) + ": bad micromap descriptor");
+    if (r.triangleCount != tris)
+      return makeError(ErrorCode::InvalidArgument, "geometry " + std::to_string(g) + ": micromap index count " +
+                                                       std::to_string(r.triangleCount) + " != triangle count " +
+                                                       std::to_string(tris));
+    if (r.array >= m.arrays.size() || uint64_t(r.firstTriangle) + r.triangleCount > m.arrays[r.array].indices.size())
+      return makeError(ErrorCode::InvalidArgument, "geometry " + std::to_string(g) + ": micromaps outside the arrays");
   }
   return Ok{};
 }
 
 Result<std::unique_ptr<Tracer>> makeFlat(std::shared_ptr<const TraceWorld> world,
-                                         std::shared_ptr<const OmmArrays> arrays, Format format,
-                                         bool overlay) {
-  if (Status s = checkArrays(*world, *arrays); !s) return s.error();
-  const auto& geoms = world->impl().geometries;
-  struct Store {
-    std::shared_ptr<const OmmArrays> arrays;
-    std::vector<detail::FlatOmmData> data;
-  };
-  auto store = std::make_shared<Store>();
-  store->arrays = arrays;
-  store->data.resize(geoms.size());
-  uint64_t bytes = 0;
-  for (size_t g = 0; g < geoms.size(); ++g) {
-    detail::FlatOmmData& d = store->data[g];
-    d.geometry = &geoms[g];
-    if (!geoms[g].alphaTested) continue;
-    const OmmArray& a = (*arrays)[g];
-    d.indices = a.indices.data();
-    d.descriptors = a.descriptors.data();
-    d.data = a.data.data();
-    bytes += flatBytes(a);
+                                         std::shared_ptr<const SceneMicromaps> micromaps, Format format, bool overlay,
+                                         bool split) {
+  if (Status s = checkMicromaps(*world, *micromaps); !s) return s.error();
+  TracerFactory::Spec spec;
+  spec.name = overlay ? "state-overlay" : (format == Format::TwoState ? "omm2-flat" : "omm4-flat");
+  spec.kind = overlay ? MethodKind::StateOverlay : MethodKind::Omm;
+  for (const OmmArray& a : micromaps->arrays) spec.bytes += flatBytes(a);
+  spec.micromaps = std::move(micromaps);
+  spec.twoState = format == Format::TwoState;
+  spec.split = split;
+  return TracerFactory::build(std::move(world), std::move(spec));
+}
+
+Result<std::unique_ptr<Tracer>> makeEncoded(std::shared_ptr<const TraceWorld> world,
+                                            std::shared_ptr<const SceneMicromaps> micromaps, Format format,
+                                            Encoding encoding, bool split) {
+  if (Status s = checkMicromaps(*world, *micromaps); !s) return s.error();
+  auto store = std::make_shared<std::vector<EncodedArray>>();
+  TracerFactory::Spec spec;
+  for (const OmmArray& a : micromaps->arrays) {
+    auto built = EncodedArray::build(a, encoding);
+    if (!built) return built.error();
+    spec.bytes += built->byteSize();
+    store->push_back(std::move(built).value());
   }
-  std::vector<void*> user;
-  for (auto& d : store->data) user.push_back(&d);
-  RTCFilterFunctionN f = format == Format::TwoState ? &detail::filterFunction<detail::FlatOmmPolicy<false>>
-                                                    : &detail::filterFunction<detail::FlatOmmPolicy<true>>;
-  const std::string name =
-      overlay ? "state-overlay" : (format == Format::TwoState ? "omm2-flat" : "omm4-flat");
-  return TracerFactory::build(std::move(world), name, bytes, f, std::move(user), store,
-                              overlay ? MethodKind::StateOverlay : MethodKind::Omm,
-                              overlay ? arrays : nullptr);
+  for (const EncodedArray& e : *store) spec.encoded.push_back(&e);
+  spec.name = std::string(format == Format::TwoState ? "omm2-" : "omm4-") + encodingName(encoding);
+  spec.kind = MethodKind::Omm;
+  spec.micromaps = std::move(micromaps);
+  spec.twoState = format == Format::TwoState;
+  spec.split = split;
+  spec.keepAlive = store;
+  return TracerFactory::build(std::move(world), std::move(spec));
 }
 
 }  // namespace
 
 Result<std::unique_ptr<Tracer>> makeFlatOmmTracer(std::shared_ptr<const TraceWorld> world,
-                                                  std::shared_ptr<const OmmArrays> arrays, Format format) {
-  return makeFlat(std::move(world), std::move(arrays), format, false);
+                                                  std::shared_ptr<const SceneMicromaps> micromaps, Format format,
+                                                  bool splitSpecialIndices) {
+  return makeFlat(std::move(world), std::move(micromaps), format, false, splitSpecialIndices);
 }
 
 Result<std::unique_ptr<Tracer>> makeStateOverlayTracer(std::shared_ptr<const TraceWorld> world,
-                                                       std::shared_ptr<const OmmArrays> arrays) {
-  return makeFlat(std::move(world), std::move(arrays), Format::FourState, true);
+                                                       std::shared_ptr<const SceneMicromaps> micromaps) {
+  return makeFlat(std::move(world), std::move(micromaps), Format::FourState, true, true);
 }
-
-#if SOMM_TRACE_HAS_ENCODINGS
-namespace {
-
-template <Encoding E>
-RTCFilterFunctionN encodedFilter(Format format) {
-  return format == Format::TwoState ? &detail::filterFunction<detail::EncodedOmmPolicy<E, false>>
-                                    : &detail::filterFunction<detail::EncodedOmmPolicy<E, true>>;
-}
-
-Result<std::unique_ptr<Tracer>> makeEncoded(std::shared_ptr<const TraceWorld> world,
-                                            std::shared_ptr<const OmmArrays> arrays, Format format,
-                                            Encoding encoding) {
-  if (Status s = checkArrays(*world, *arrays); !s) return s.error();
-  const auto& geoms = world->impl().geometries;
-  // One scene-wide array (as the default bake stores it): identical maps and, for csm / sdag, identical
-  // subtrees shared by every alpha-tested geometry.
-  struct Store {
-    EncodedArray array;
-    std::vector<detail::EncodedOmmData> data;
-  };
-  auto store = std::make_shared<Store>();
-  store->data.resize(geoms.size());
-  std::vector<OmmArray> tested;
-  std::vector<size_t> testedGeometry;
-  for (size_t g = 0; g < geoms.size(); ++g) {
-    store->data[g].geometry = &geoms[g];
-    if (!geoms[g].alphaTested) continue;
-    tested.push_back((*arrays)[g]);
-    testedGeometry.push_back(g);
-  }
-  const SceneMicromaps scene = mergeToSceneArray(perGeometryMicromaps(std::move(tested)));
-  uint64_t bytes = 0;
-  if (!scene.arrays.empty()) {
-    auto built = EncodedArray::build(scene.arrays[0], encoding);
-    if (!built) return built.error();
-    store->array = std::move(built).value();
-    bytes = store->array.byteSize();
-    for (size_t i = 0; i < testedGeometry.size(); ++i) {
-      detail::EncodedOmmData& d = store->data[testedGeometry[i]];
-      d.array = &store->array;
-      d.firstTriangle = scene.geometries[i].firstTriangle;
-    }
-  }
-  std::vector<void*> user;
-  for (auto& d : store->data) user.push_back(&d);
-  RTCFilterFunctionN f = nullptr;
-  switch (encoding) {
-    case Encoding::Flat:
-      f = encodedFilter<Encoding::Flat>(format);
-      break;
-    case Encoding::Dfs:
-      f = encodedFilter<Encoding::Dfs>(format);
-      break;
-    case Encoding::DfsFast:
-      f = encodedFilter<Encoding::DfsFast>(format);
-      break;
-    case Encoding::Rank:
-      f = encodedFilter<Encoding::Rank>(format);
-      break;
-    case Encoding::Hybrid:
-      f = encodedFilter<Encoding::Hybrid>(format);
-      break;
-    case Encoding::Csm:
-      f = encodedFilter<Encoding::Csm>(format);
-      break;
-    case Encoding::Sdag:
-      f = encodedFilter<Encoding::Sdag>(format);
-      break;
-  }
-  const std::string name =
-      std::string(format == Format::TwoState ? "omm2-" : "omm4-") + encodingName(encoding);
-  return TracerFactory::build(std::move(world), name, bytes, f, std::move(user), store, MethodKind::Omm,
-                              nullptr);
-}
-
-}  // namespace
-#endif
 
 Result<std::unique_ptr<Tracer>> makeTracer(std::shared_ptr<const TraceWorld> world, const MethodSpec& method,
                                            const MicromapSet& micromaps) {
-  auto need = [&](const std::shared_ptr<const OmmArrays>& a) -> Status {
-    if (!a)
-      return makeError(ErrorCode::InvalidArgument,
-                       "method " + method.name() + ": no micromaps of that format");
+  auto need = [&](const std::shared_ptr<const SceneMicromaps>& a) -> Status {
+    if (!a) return makeError(ErrorCode::InvalidArgument, "method " + method.name() + ": no micromaps of that format");
     return Ok{};
   };
   switch (method.kind) {
@@ -669,14 +606,13 @@ Result<std::unique_ptr<Tracer>> makeTracer(std::shared_ptr<const TraceWorld> wor
       if (Status s = need(micromaps.flat4); !s) return s.error();
       return makeStateOverlayTracer(std::move(world), micromaps.flat4);
     case MethodKind::Omm: {
-      const auto& arrays = method.format == Format::TwoState ? micromaps.flat2 : micromaps.flat4;
-      if (Status s = need(arrays); !s) return s.error();
-      if (method.encoding == "flat") return makeFlatOmmTracer(std::move(world), arrays, method.format);
-#if SOMM_TRACE_HAS_ENCODINGS
+      const auto& m = method.format == Format::TwoState ? micromaps.flat2 : micromaps.flat4;
+      if (Status s = need(m); !s) return s.error();
+      if (method.encoding == "flat")
+        return makeFlat(std::move(world), m, method.format, false, micromaps.splitSpecialIndices);
       if (auto e = parseEncodingName(method.encoding))
-        return makeEncoded(std::move(world), arrays, method.format, *e);
-#endif
-      return makeError(ErrorCode::InvalidArgument, "method " + method.name() + ": encoding not available");
+        return makeEncoded(std::move(world), m, method.format, *e, micromaps.splitSpecialIndices);
+      return makeError(ErrorCode::InvalidArgument, "method " + method.name() + ": unknown encoding");
     }
   }
   return makeError(ErrorCode::InvalidArgument, "unknown method");
@@ -741,19 +677,20 @@ RenderResult Tracer::render(const RenderSettings& settings) const {
   result.image.rgba.assign(size_t(W) * H * 4, 255);
   const RTCScene rtcScene = impl_->scene;
   const MethodKind kind = impl_->kind;
-  const OmmArrays* overlay = impl_->overlay.get();
+  const SceneMicromaps* overlay = impl_->overlay.get();
+  const std::vector<Impl::Part>& parts = impl_->parts;
 
   auto traceTile = [&](uint32_t tile) {
     TraceCounters local;
-    detail::TraceContext ctx;
-    rtcInitIntersectContext(&ctx.rtc);
-    ctx.counters = &local;
+    embree::FilterCounters work;
+    embree::CountingContext ctx;
+    embree::initCountingContext(ctx, &work);
     const uint32_t x0 = (tile % tilesX) * kTile, y0 = (tile / tilesX) * kTile;
     const uint32_t x1 = std::min(W, x0 + kTile), y1 = std::min(H, y0 + kTile);
     for (uint32_t y = y0; y < y1; ++y)
       for (uint32_t x = x0; x < x1; ++x) {
         V3 acc{0, 0, 0};
-        const uint64_t filterCallsBefore = local.filterCalls;
+        const uint64_t filterCallsBefore = work.filterCalls;
         for (uint32_t s = 0; s < spp; ++s) {
           // Fixed sample pattern: pixel centre, then the R2 sequence around it.
           float ox = 0.5f + float(s) * 0.7548776662f, oy = 0.5f + float(s) * 0.5698402910f;
@@ -785,9 +722,10 @@ RenderResult Tracer::render(const RenderSettings& settings) const {
             continue;
           }
           ++local.primaryHits;
-          const detail::FlatGeometry& f = w.flat[rh.hit.geomID];
+          const Impl::Part& part = parts[rh.hit.geomID];
+          const detail::FlatGeometry& f = w.flat[part.flat];
           const detail::GeometryData& gd = w.geometries[f.geometry];
-          const uint32_t prim = rh.hit.primID;
+          const uint32_t prim = part.triangleOf ? part.triangleOf[rh.hit.primID] : rh.hit.primID;
           const uint32_t* tri = gd.indices.data() + 3 * size_t(prim);
           const float* P = f.positions.data();
           const V3 a{P[3 * tri[0]], P[3 * tri[0] + 1], P[3 * tri[0] + 2]};
@@ -799,7 +737,7 @@ RenderResult Tracer::render(const RenderSettings& settings) const {
           interpolateUV(gd.triUVs.data() + 6 * size_t(prim), rh.hit.u, rh.hit.v, s0, t0);
           V3 albedo = baseColor(*gd.material, s0, t0);
           if (kind == MethodKind::StateOverlay)
-            albedo = gd.alphaTested ? stateColor((*overlay)[f.geometry].stateUV(prim, rh.hit.u, rh.hit.v))
+            albedo = gd.alphaTested ? stateColor(overlay->stateUV(f.geometry, prim, rh.hit.u, rh.hit.v))
                                     : V3{0.55f, 0.55f, 0.6f};
           const float ndl = dot(n, light);
           float direct = 0.0f;
@@ -829,7 +767,7 @@ RenderResult Tracer::render(const RenderSettings& settings) const {
           acc = add(acc, mul(albedo, kind == MethodKind::StateOverlay ? 0.65f + 0.35f * direct
                                                                       : 0.3f + 0.7f * direct));
         }
-        local.alphaTestedPixels += local.filterCalls != filterCallsBefore;
+        local.alphaTestedPixels += work.filterCalls != filterCallsBefore;
         uint8_t* px = result.image.rgba.data() + (size_t(y) * W + x) * 4;
         for (int k = 0; k < 3; ++k) {
           const float v = std::clamp(acc[k] / float(spp), 0.0f, 1.0f);
@@ -837,6 +775,9 @@ RenderResult Tracer::render(const RenderSettings& settings) const {
         }
         px[3] = 255;
       }
+    local.filterCalls = work.filterCalls;
+    local.textureTests = work.textureTests;
+    local.micromapLookups = work.micromapLookups;
     tileCounters[tile] = local;
   };
 
@@ -858,12 +799,8 @@ RenderResult Tracer::render(const RenderSettings& settings) const {
 
 namespace somm::detail {
 std::vector<std::string> encodingNames() {
-#if SOMM_TRACE_HAS_ENCODINGS
   std::vector<std::string> names;
   for (Encoding e : kAllEncodings) names.push_back(encodingName(e));
   return names;
-#else
-  return {"flat"};
-#endif
 }
 }  // namespace somm::detail

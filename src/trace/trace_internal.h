@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "somm/embree.h"
 #include "somm/texture.h"
 #include "somm/trace.h"
 
@@ -47,12 +48,6 @@ struct BitmaskData {
   uint32_t n = 1, bytesPerTriangle = 1;
 };
 
-struct FlatOmmData {
-  const GeometryData* geometry = nullptr;
-  const int32_t* indices = nullptr;
-  const TriangleDescriptor* descriptors = nullptr;
-  const uint8_t* data = nullptr;
-};
 
 std::vector<std::string> encodingNames();
 
@@ -69,7 +64,14 @@ struct Tracer::Impl {
   RTCScene scene = nullptr;
   std::shared_ptr<const void> keepAlive;
   MethodKind kind = MethodKind::Texture;
-  std::shared_ptr<const OmmArrays> overlay;
+  std::shared_ptr<const SceneMicromaps> micromaps, overlay;
+  // By Embree geometry id: the flattened instance, and the part's primID → triangle map (null: identity).
+  struct Part {
+    uint32_t flat = 0;
+    const uint32_t* triangleOf = nullptr;
+  };
+  std::vector<Part> parts;
+  std::vector<embree::AttachedGeometry> attached;  // micromap methods: the parts somm/embree.h created
 };
 
 }  // namespace somm

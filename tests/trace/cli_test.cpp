@@ -62,6 +62,9 @@ TEST(TraceCli, BenchTableAndJson) {
     if (m["exact_required"].get<bool>()) {
       EXPECT_EQ(m["pct_pixels_differing"].get<double>(), 0.0) << m["method"];
     }
+    EXPECT_EQ(m["ratio_to_texture_runs"].size(), 2u);
+    EXPECT_LE(m["ratio_min"].get<double>(), m["ratio_to_texture"].get<double>());
+    EXPECT_GE(m["ratio_max"].get<double>(), m["ratio_to_texture"].get<double>());
     if (m["method"] == "texture") {
       EXPECT_DOUBLE_EQ(m["ratio_to_texture"].get<double>(), 1.0);
     }
@@ -77,6 +80,20 @@ TEST(TraceCli, BenchTableAndJson) {
   EXPECT_NE(t.out.find("omm4-flat"), std::string::npos);
   EXPECT_NE(t.out.find("vs texture"), std::string::npos);
   EXPECT_EQ(t.out.find("bitmask"), std::string::npos);
+}
+
+// An exactness check that hits no alpha-tested geometry tests nothing: bench fails unless --allow-empty.
+TEST(TraceCli, BenchRefusesAnEmptyComparison) {
+  const std::string away = " --camera 0,1000,0,0,2000,0,1,0,0,45 --methods omm4-flat --repeat 1";
+  auto r = runSomm("bench " + kOak + kSmall + away);
+  EXPECT_EQ(r.exitCode, 1) << r.out;
+  EXPECT_NE(r.err.find("alpha-tested"), std::string::npos) << r.err;
+  r = runSomm("bench " + kOak + kSmall + away + " --allow-empty --json");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["alpha_tested_pixels"], 0);
+  r = runSomm("bench " + kOak + kSmall + " --methods omm4-flat --repeat 1 --json");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_GT(nlohmann::json::parse(r.out)["alpha_tested_pixels"].get<uint64_t>(), 100u);
 }
 
 TEST(TraceCli, BadInput) {

@@ -58,14 +58,14 @@ Traced traceAndCheck(Scene s, const std::optional<Camera>& camera, uint32_t leve
   EXPECT_GT(ref.counters.shadowRays, 0u) << scene->sourcePath;
   BakeOptions o;
   o.level = level;
-  auto flat4 = std::make_shared<OmmArrays>();
+  std::vector<OmmArray> perGeometry;
   for (const Geometry& g : scene->geometries) {
     auto baked = bakeGeometry(g, scene->materials[g.material], o);
     EXPECT_TRUE(baked.ok()) << (baked.ok() ? "" : baked.error().message);
-    flat4->push_back(baked.ok() ? baked->array : OmmArray{});
+    perGeometry.push_back(baked.ok() ? baked->array : OmmArray{});
   }
   MicromapSet m;
-  m.flat4 = flat4;
+  m.flat4 = std::make_shared<const SceneMicromaps>(mergeToSceneArray(perGeometryMicromaps(std::move(perGeometry))));
   auto omm4 = makeTracer(*world, parseMethod("omm4-flat").value(), m);
   EXPECT_TRUE(omm4.ok()) << (omm4.ok() ? "" : omm4.error().message);
   if (!omm4.ok()) return out;
@@ -186,6 +186,60 @@ TEST(TraceInputs, DegenerateTransformsAreErrors) {
   ASSERT_FALSE(z.ok());
   EXPECT_NE(z.error().message.find("node 0"), std::string::npos) << z.error().message;
   EXPECT_NE(z.error().message.find("z.glb"), std::string::npos) << z.error().message;
+}
+
+// A material is traced as alpha-tested only if some triangle of it can fail the alpha test (the baker's
+// classification): an RGBA map_Kd whose alpha never falls below the cutoff is opaque geometry without a filter.
+TEST(TraceInputs, MaterialsThatCannotFailAreTracedOpaque) {
+  TempDir d;
+  writeObjScene(d);  // leaf.png (a disc) for material 'leaf'
+  std::vector<uint8_t> rgba(16 * 16 * 4, 200);
+  for (size_t i = 3; i < rgba.size(); i += 4) rgba[i] = 250;  // alpha 0.98 everywhere
+  ASSERT_TRUE(stbi_write_png(d.file("solid.png").c_str(), 16, 16, 4, rgba.data(), 16 * 4));
+  writeFile(d.file("s.mtl"), "newmtl leaf\nKd 1 1 1\nmap_Kd solid.png\n\nnewmtl ground\nKd 0.5 0.4 0.3\n");
+  auto s = loadScene(d.file("s.obj"));
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  ASSERT_TRUE(s->materials[0].alphaTested());
+  auto canFail = materialsThatCanFailAlphaTest(*s);
+  ASSERT_TRUE(canFail.ok());
+  EXPECT_EQ(*canFail, (std::vector<bool>{false, false}));
+  Scene failing = *s;
+  failing.materials[0].alphaCutoff = 0.99f;  // now every texel fails
+  EXPECT_EQ(materialsThatCanFailAlphaTest(failing).value(), (std::vector<bool>{true, false}));
+  auto w = TraceWorld::create(std::make_shared<const Scene>(std::move(s).value()));
+  ASSERT_TRUE(w.ok());
+  EXPECT_EQ((*w)->alphaTestedMaterials(), 0u);
+  const RenderResult r = makeTextureTracer(*w).value()->render(RenderSettings{});
+  EXPECT_GT(r.counters.primaryHits, 0u);
+  EXPECT_EQ(r.counters.filterCalls, 0u);
+  const auto info = runSomm("scene-info " + d.file("s.obj") + " --json");
+  ASSERT_EQ(info.exitCode, 0) << info.err;
+  const auto j = nlohmann::json::parse(info.out);
+  EXPECT_EQ(j["alpha_tested_triangles"], 4);
+  EXPECT_EQ(j["can_fail_triangles"], 0);
+  EXPECT_EQ(j["alpha_tested_materials"], 1);
+  EXPECT_EQ(j["can_fail_materials"], 0);
+}
+
+// A missing texture that cannot carry alpha (a map_Kd JPEG) is a warning and the material is drawn opaque; a
+// missing PNG (which could carry alpha) stays an error naming the material and the file.
+TEST(TraceInputs, MissingJpegIsAWarningMissingPngAnError) {
+  TempDir d;
+  writeObjScene(d);
+  writeFile(d.file("s.mtl"), "newmtl leaf\nKd 1 1 1\nmap_Kd gone.jpg\n\nnewmtl ground\nKd 0.5 0.4 0.3\n");
+  auto s = loadScene(d.file("s.obj"));
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  EXPECT_FALSE(s->materials[0].alphaTested());
+  ASSERT_FALSE(s->warnings.empty());
+  EXPECT_NE(s->warnings.back().find("gone.jpg"), std::string::npos) << s->warnings.back();
+  writeFile(d.file("s.mtl"), "newmtl leaf\nKd 1 1 1\nmap_Kd gone.png\n\nnewmtl ground\nKd 0.5 0.4 0.3\n");
+  auto e = loadScene(d.file("s.obj"));
+  ASSERT_FALSE(e.ok());
+  EXPECT_NE(e.error().message.find("gone.png"), std::string::npos) << e.error().message;
+  EXPECT_NE(e.error().message.find("leaf"), std::string::npos) << e.error().message;
+  // map_d missing: an error even when it is a JPEG (it is the alpha).
+  writeFile(d.file("s.mtl"), "newmtl leaf\nKd 1 1 1\nmap_d gone.jpg\n");
+  EXPECT_FALSE(loadScene(d.file("s.obj")).ok());
 }
 
 // The real scenes, with cameras that look into the foliage.

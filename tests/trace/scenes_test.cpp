@@ -13,14 +13,15 @@
 namespace somm {
 namespace {
 
-std::shared_ptr<const OmmArrays> bakeAll(const Scene& scene, BakeOptions options) {
-  auto arrays = std::make_shared<OmmArrays>();
+// One scene-wide array (as `somm bake` stores it): geometries' filters read global triangles.
+std::shared_ptr<const SceneMicromaps> bakeAll(const Scene& scene, BakeOptions options) {
+  std::vector<OmmArray> arrays;
   for (const Geometry& g : scene.geometries) {
     auto baked = bakeGeometry(g, scene.materials[g.material], options);
     EXPECT_TRUE(baked.ok()) << (baked.ok() ? "" : baked.error().message);
-    arrays->push_back(baked.ok() ? baked->array : OmmArray{});
+    arrays.push_back(baked.ok() ? baked->array : OmmArray{});
   }
-  return arrays;
+  return std::make_shared<const SceneMicromaps>(mergeToSceneArray(perGeometryMicromaps(std::move(arrays))));
 }
 
 // Renders `texture`, omm4-flat and bitmask (exact) and omm2-flat from several views; returns omm2's worst

@@ -20,6 +20,10 @@ std::shared_ptr<const TraceWorld> world(Scene s) {
   return *w;
 }
 
+std::shared_ptr<const SceneMicromaps> sceneMicromaps(OmmArrays perGeometry) {
+  return std::make_shared<const SceneMicromaps>(perGeometryMicromaps(std::move(perGeometry)));
+}
+
 std::unique_ptr<Tracer> take(Result<std::unique_ptr<Tracer>> r) {
   EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error().message);
   return std::move(*r);
@@ -86,7 +90,7 @@ TEST(TraceExactness, FourStateMatchesTexturePixelForPixel) {
   EXPECT_GT(percentPixelsDiffering(op.image, ref.image), 5.0);
 
   for (uint32_t level : {0u, 3u, 6u}) {
-    auto arrays = std::make_shared<const OmmArrays>(bakeSimple(w->scene(), level, Format::FourState));
+    auto arrays = sceneMicromaps(bakeSimple(w->scene(), level, Format::FourState));
     auto omm = take(makeFlatOmmTracer(w, arrays, Format::FourState));
     EXPECT_EQ(omm->method(), "omm4-flat");
     EXPECT_GT(omm->micromapBytes(), 0u);
@@ -113,7 +117,7 @@ TEST(TraceExactness, FourStateMatchesTexturePixelForPixel) {
 TEST(TraceExactness, TwoStateNeverSamplesTheTexture) {
   auto w = world(testing::makeCardScene(60));
   const RenderSettings rs = small(96, 72, 1);
-  auto arrays = std::make_shared<const OmmArrays>(bakeSimple(w->scene(), 4, Format::TwoState));
+  auto arrays = sceneMicromaps(bakeSimple(w->scene(), 4, Format::TwoState));
   auto omm2 = take(makeFlatOmmTracer(w, arrays, Format::TwoState));
   EXPECT_EQ(omm2->method(), "omm2-flat");
   const RenderResult r = omm2->render(rs);
@@ -128,7 +132,7 @@ TEST(TraceExactness, TwoStateNeverSamplesTheTexture) {
 
 TEST(TraceExactness, GrazingAnglesAndCloseUps) {
   auto w = world(testing::makeCardScene(40, 7));
-  auto arrays = std::make_shared<const OmmArrays>(bakeSimple(w->scene(), 5, Format::FourState));
+  auto arrays = sceneMicromaps(bakeSimple(w->scene(), 5, Format::FourState));
   auto texture = take(makeTextureTracer(w));
   auto omm = take(makeFlatOmmTracer(w, arrays, Format::FourState));
   auto bitmask = take(makeBitmaskTracer(w, 5));
@@ -189,7 +193,7 @@ TEST(TraceRender, InstancesEqualPreTransformedCopies) {
 
 TEST(TraceRender, StateOverlayColoursByState) {
   auto w = world(testing::makeCardScene(30));
-  auto arrays = std::make_shared<const OmmArrays>(bakeSimple(w->scene(), 4, Format::FourState));
+  auto arrays = sceneMicromaps(bakeSimple(w->scene(), 4, Format::FourState));
   auto overlay = take(makeStateOverlayTracer(w, arrays));
   EXPECT_EQ(overlay->method(), "state-overlay");
   const RenderResult r = overlay->render(small(96, 72));
@@ -206,16 +210,17 @@ TEST(TraceRender, StateOverlayColoursByState) {
 
 TEST(TraceRender, RejectsMismatchedMicromaps) {
   auto w = world(testing::makeCardScene(10));
-  auto arrays = std::make_shared<const OmmArrays>(bakeSimple(w->scene(), 2, Format::FourState));
-  auto tooFew = std::make_shared<OmmArrays>(*arrays);
-  tooFew->pop_back();
-  EXPECT_FALSE(makeFlatOmmTracer(w, tooFew, Format::FourState).ok());
-  auto badIndex = std::make_shared<OmmArrays>(*arrays);
-  (*badIndex)[0].indices[0] = 1 << 20;
-  EXPECT_FALSE(makeFlatOmmTracer(w, badIndex, Format::FourState).ok());
-  auto shortList = std::make_shared<OmmArrays>(*arrays);
-  (*shortList)[0].indices.pop_back();
-  EXPECT_FALSE(makeFlatOmmTracer(w, shortList, Format::FourState).ok());
+  const OmmArrays arrays = bakeSimple(w->scene(), 2, Format::FourState);
+  EXPECT_TRUE(makeFlatOmmTracer(w, sceneMicromaps(arrays), Format::FourState).ok());
+  OmmArrays tooFew = arrays;
+  tooFew.pop_back();
+  EXPECT_FALSE(makeFlatOmmTracer(w, sceneMicromaps(tooFew), Format::FourState).ok());
+  OmmArrays badIndex = arrays;
+  badIndex[0].indices[0] = 1 << 20;
+  EXPECT_FALSE(makeFlatOmmTracer(w, sceneMicromaps(badIndex), Format::FourState).ok());
+  OmmArrays shortList = arrays;
+  shortList[0].indices.pop_back();
+  EXPECT_FALSE(makeFlatOmmTracer(w, sceneMicromaps(shortList), Format::FourState).ok());
   EXPECT_FALSE(makeBitmaskTracer(w, 11).ok());
 }
 

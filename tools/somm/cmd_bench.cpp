@@ -18,6 +18,7 @@ struct Options {
   somm::cli::TraceCliOptions trace;
   std::string methods;  // comma list; empty = all
   uint32_t repeat = 3;
+  bool allowEmpty = false;
 };
 
 struct Row {
@@ -25,6 +26,7 @@ struct Row {
   somm::MethodSpec spec;
   std::unique_ptr<somm::Tracer> tracer;
   std::vector<double> mrays;  // per repeat
+  std::vector<double> ratios;  // per repeat: mrays / texture's mrays of the same repeat
   somm::TraceCounters counters;
   double diff = 0;
   bool exact = false;  // must match texture pixel for pixel
@@ -93,9 +95,20 @@ int run(const Options& o) {
         r.diff = somm::percentPixelsDiffering(res.image, reference);
       }
     }
-  const double textureMrays = median(rows.front().mrays);
+  // Ratios per repeat (texture ran in the same repeat, interleaved), then their median: robust against the
+  // machine's speed changing between repeats.
+  const std::vector<double>& textureRuns = rows.front().mrays;
+  for (Row& r : rows)
+    for (size_t k = 0; k < r.mrays.size(); ++k)
+      r.ratios.push_back(textureRuns[k] > 0 ? r.mrays[k] / textureRuns[k] : 0.0);
+  const double textureMedian = median(textureRuns);
+  const double textureSpread =
+      textureMedian > 0 ? (*std::max_element(textureRuns.begin(), textureRuns.end()) -
+                           *std::min_element(textureRuns.begin(), textureRuns.end())) / textureMedian
+                        : 0.0;
   bool inexact = false;
   for (const Row& r : rows) inexact |= r.exact && r.diff != 0.0;
+  const uint64_t alphaPixels = rows.front().counters.alphaTestedPixels;
 
   Output out;
   if (o.trace.json) {
@@ -108,13 +121,18 @@ int run(const Options& o) {
     j["threads"] = p->settings.threads;
     j["repeat"] = o.repeat;
     j["bitmask_level"] = p->micromaps.bitmaskLevel;
+    j["alpha_tested_pixels"] = alphaPixels;
+    j["texture_spread"] = textureSpread;
     nlohmann::json ms = nlohmann::json::array();
     for (const Row& r : rows) {
       const double rays = double(r.counters.rays());
       ms.push_back({{"method", r.name},
                     {"mrays_per_s", median(r.mrays)},
                     {"mrays_per_s_runs", r.mrays},
-                    {"ratio_to_texture", textureMrays > 0 ? median(r.mrays) / textureMrays : 0.0},
+                    {"ratio_to_texture", median(r.ratios)},
+                    {"ratio_to_texture_runs", r.ratios},
+                    {"ratio_min", *std::min_element(r.ratios.begin(), r.ratios.end())},
+                    {"ratio_max", *std::max_element(r.ratios.begin(), r.ratios.end())},
                     {"rays", r.counters.rays()},
                     {"filter_calls_per_ray", rays ? double(r.counters.filterCalls) / rays : 0.0},
                     {"texture_tests_per_ray", rays ? double(r.counters.textureTests) / rays : 0.0},
@@ -127,17 +145,23 @@ int run(const Options& o) {
     out.put(dumpJson(j) + "\n");
   } else {
     char buf[512];
-    std::snprintf(buf, sizeof buf, "%s: %ux%u, %u spp, %u repeats (median), micromaps %s\n",
+    std::snprintf(buf, sizeof buf,
+                  "%s: %ux%u, %u spp, %u repeats (medians; ratios per repeat), micromaps %s\n"
+                  "pixels with alpha-tested hits (texture): %llu of %llu\n",
                   o.trace.scene.c_str(), p->settings.width, p->settings.height, p->settings.spp, o.repeat,
-                  needMicromaps ? p->micromapSource.c_str() : "-");
+                  needMicromaps ? p->micromapSource.c_str() : "-", (unsigned long long)alphaPixels,
+                  (unsigned long long)p->settings.width * p->settings.height);
     out.put(buf);
-    std::snprintf(buf, sizeof buf, "%-14s %9s %10s %12s %13s %14s %9s\n", "method", "Mrays/s", "vs texture",
-                  "filter/ray", "texture/ray", "micromap bytes", "% pixels");
+    std::snprintf(buf, sizeof buf, "%-14s %9s %10s %13s %12s %13s %14s %9s\n", "method", "Mrays/s", "vs texture",
+                  "ratio range", "filter/ray", "texture/ray", "micromap bytes", "% pixels");
     out.put(buf);
     for (const Row& r : rows) {
       const double rays = double(r.counters.rays());
-      std::snprintf(buf, sizeof buf, "%-14s %9.2f %9.2fx %12.3f %13.3f %14llu %8.3f%s\n", r.name.c_str(),
-                    median(r.mrays), textureMrays > 0 ? median(r.mrays) / textureMrays : 0.0,
+      char range[64];
+      std::snprintf(range, sizeof range, "%.2f-%.2f", *std::min_element(r.ratios.begin(), r.ratios.end()),
+                    *std::max_element(r.ratios.begin(), r.ratios.end()));
+      std::snprintf(buf, sizeof buf, "%-14s %9.2f %9.2fx %13s %12.3f %13.3f %14llu %8.3f%s\n", r.name.c_str(),
+                    median(r.mrays), median(r.ratios), range,
                     rays ? double(r.counters.filterCalls) / rays : 0.0,
                     rays ? double(r.counters.textureTests) / rays : 0.0,
                     (unsigned long long)r.tracer->micromapBytes(), r.diff,
@@ -146,6 +170,15 @@ int run(const Options& o) {
     }
   }
   out.flush();
+  if (textureSpread > 0.10)
+    printError("bench", "warning: the texture runs spread by " + std::to_string(int(textureSpread * 100 + 0.5)) +
+                            " % (the machine's speed changed; use more --repeat)");
+  if (alphaPixels == 0 && !o.allowEmpty) {
+    printError("bench", o.trace.scene +
+                            ": no pixel saw a hit on alpha-tested geometry, so the comparison tests nothing "
+                            "(aim --camera into the foliage, or pass --allow-empty)");
+    return kExitFailure;
+  }
   if (inexact) {
     printError("bench", "a method that must be exact rendered pixels different from texture");
     return kExitFailure;
@@ -159,13 +192,16 @@ void setup(CLI::App& root) {
       "bench",
       "Trace the same rays with every any-hit method (interleaved over --repeat runs) and print Mrays/s "
       "(median), the "
-      "ratio to texture, filter calls and texture tests per ray, micromap bytes and the % of pixels "
+      "median of the per-repeat ratios to texture, filter calls and texture tests per ray, micromap bytes and the % of pixels "
       "differing from "
-      "texture. Exit code 1 if a 4-state method or the bitmask is not pixel-identical to texture.");
+      "texture. Exit code 1 if a 4-state method or the bitmask is not pixel-identical to texture, or if no pixel "
+      "saw an alpha-tested hit (unless --allow-empty).");
   somm::cli::addTraceOptions(cmd, opts->trace);
   cmd->add_option("--methods", opts->methods,
                   "comma-separated methods (default: all; texture is always included)");
   cmd->add_option("--repeat", opts->repeat, "interleaved repeats")->check(CLI::Range(1u, 1000u));
+  cmd->add_flag("--allow-empty", opts->allowEmpty,
+                "do not fail when the texture method hit no alpha-tested geometry (an empty comparison)");
   cmd->callback([opts] { somm::cli::setExitCode(run(*opts)); });
 }
 

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "command.h"
+#include "somm/trace.h"
 #include "somm/scene.h"
 
 namespace {
@@ -44,10 +45,23 @@ int run(const Options& o) {
     return scene.error().code == somm::ErrorCode::ParseError ? kExitUsage : kExitFailure;
   }
   const somm::Scene& s = *scene;
-  uint64_t triangles = 0, tested = 0;
+  // Alpha-tested materials, and those of them that can fail the alpha test (the baker's conservative
+  // classification): only those are traced with a filter.
+  auto canFailResult = somm::materialsThatCanFailAlphaTest(s);
+  if (!canFailResult) {
+    printError("scene-info", canFailResult.error().message);
+    return kExitFailure;
+  }
+  const std::vector<bool>& canFail = *canFailResult;
+  uint64_t triangles = 0, tested = 0, failing = 0, testedMaterials = 0, failingMaterials = 0;
+  for (size_t m = 0; m < s.materials.size(); ++m) {
+    testedMaterials += s.materials[m].alphaTested();
+    failingMaterials += canFail[m];
+  }
   for (const auto& g : s.geometries) {
     triangles += g.triangleCount();
     if (s.materials[g.material].alphaTested()) tested += g.triangleCount();
+    if (g.material < canFail.size() && canFail[g.material]) failing += g.triangleCount();
   }
   Output out;
   if (o.json) {
@@ -55,6 +69,9 @@ int run(const Options& o) {
     j["scene"] = o.path;
     j["triangles"] = triangles;
     j["alpha_tested_triangles"] = tested;
+    j["can_fail_triangles"] = failing;
+    j["alpha_tested_materials"] = testedMaterials;
+    j["can_fail_materials"] = failingMaterials;
     j["instances"] = s.instances.size();
     nlohmann::json mats = nlohmann::json::array();
     for (size_t i = 0; i < s.materials.size(); ++i) {
@@ -63,6 +80,7 @@ int run(const Options& o) {
                           {"name", m.name},
                           {"alpha_mode", modeName(m.alphaMode)},
                           {"alpha_tested", m.alphaTested()},
+                          {"can_fail_alpha_test", bool(canFail[i])},
                           {"cutoff", m.alphaCutoff},
                           {"double_sided", m.doubleSided},
                           {"alpha_factor", m.baseColorFactor[3]},
@@ -103,8 +121,10 @@ int run(const Options& o) {
   using std::to_string;
   out.put("scene: " + o.path + "\n");
   out.put(to_string(s.geometries.size()) + " geometries, " + to_string(triangles) + " triangles (" +
-          to_string(tested) + " alpha-tested), " + to_string(s.materials.size()) + " materials, " +
-          to_string(s.instances.size()) + " instances\n");
+          to_string(tested) + " alpha-tested, " + to_string(failing) + " of them can fail the alpha test), " +
+          to_string(s.materials.size()) + " materials (" + to_string(testedMaterials) + " alpha-tested, " +
+          to_string(failingMaterials) + " can fail; the others are traced opaque), " + to_string(s.instances.size()) +
+          " instances\n");
   out.put("geometries:\n");
   for (size_t i = 0; i < s.geometries.size(); ++i) {
     const somm::Geometry& g = s.geometries[i];
@@ -125,6 +145,7 @@ int run(const Options& o) {
                 "/" + wrapName(m.sampler.wrapT);
       else
         line += ", constant alpha " + fmt("%g", m.baseColorFactor[3]);
+      line += canFail[i] ? "; can fail the alpha test" : "; never fails the alpha test (traced opaque)";
     }
     out.put(line + "\n");
   }

@@ -34,6 +34,9 @@ void addTraceOptions(CLI::App* cmd, TraceCliOptions& o) {
   cmd->add_option("--cutoff", o.cutoff, "bake and trace: alpha cutoff for every material")
       ->check(CLI::Range(0.0f, 1.0f) & somm::cli::NotNan);
   cmd->add_flag("--blend-as-mask", o.blendAsMask, "treat glTF BLEND materials as MASK");
+  cmd->add_flag("--no-split", o.noSplit,
+                "micromap methods: keep triangles with a special index on the filter path (default: fully "
+                "transparent ones leave the BVH, fully opaque ones lose their filter, as with hardware micromaps)");
   cmd->add_flag("--json", o.json, "print JSON instead of text");
 }
 
@@ -69,9 +72,10 @@ Result<Camera> parseCamera(const std::string& text) {
 
 namespace {
 
-std::shared_ptr<const OmmArrays> demote(const OmmArrays& four) {
-  auto out = std::make_shared<OmmArrays>();
-  for (const OmmArray& a : four) {
+std::shared_ptr<const SceneMicromaps> demote(const SceneMicromaps& four) {
+  auto out = std::make_shared<SceneMicromaps>();
+  out->geometries = four.geometries;
+  for (const OmmArray& a : four.arrays) {
     OmmArray b = a;
     for (TriangleDescriptor& d : b.descriptors) d.format = uint16_t(Format::TwoState);
     // Re-pack each micromap as 2-state bits in place of the 4-state bytes (the spec's force-2-state).
@@ -94,7 +98,7 @@ std::shared_ptr<const OmmArrays> demote(const OmmArrays& four) {
     b.data = std::move(data);
     for (int32_t& idx : b.indices)
       if (isSpecialIndex(idx)) idx = specialIndexFor(toTwoState(stateOfSpecialIndex(idx)));
-    out->push_back(std::move(b));
+    out->arrays.push_back(std::move(b));
   }
   return out;
 }
@@ -136,7 +140,7 @@ std::unique_ptr<PreparedTrace> prepareTrace(const char* command, const TraceCliO
   p->settings.spp = o.spp;
   p->settings.threads = o.threads;
 
-  std::shared_ptr<const OmmArrays> flat4, flat2;
+  std::shared_ptr<const SceneMicromaps> flat4, flat2;
   if (needMicromaps && !o.omm.empty()) {
     auto file = readSommFile(o.omm);
     if (!file) {
@@ -150,7 +154,6 @@ std::unique_ptr<PreparedTrace> prepareTrace(const char* command, const TraceCliO
       exitCode = kExitFailure;
       return nullptr;
     }
-    auto arrays = std::make_shared<OmmArrays>();
     bool four = true;
     for (size_t g = 0; g < file->geometries.size(); ++g) {
       const GeometryInfo& sg = file->geometries[g];
@@ -168,9 +171,8 @@ std::unique_ptr<PreparedTrace> prepareTrace(const char* command, const TraceCliO
         m.alphaCutoff = sg.cutoff;
         m.sampler = sg.sampler;
       }
-      // Until the tracer takes SceneMicromaps: each geometry's maps as a stand-alone array.
-      arrays->push_back(file->micromaps.standalone(uint32_t(g)));
     }
+    auto arrays = std::make_shared<const SceneMicromaps>(std::move(file->micromaps));
     if (four) {
       flat4 = arrays;
       flat2 = demote(*arrays);
@@ -200,30 +202,29 @@ std::unique_ptr<PreparedTrace> prepareTrace(const char* command, const TraceCliO
       return nullptr;
     }
     const auto start = std::chrono::steady_clock::now();
+    bo.blend = BlendAs::Unknown;
     for (Format f : {Format::FourState, Format::TwoState}) {
       bo.format = f;
-      auto arrays = std::make_shared<OmmArrays>();
-      for (const Geometry& g : p->scene->geometries) {
-        auto baked = bakeGeometry(g, p->scene->materials[g.material], bo);
-        if (!baked) {
-          printError(command, baked.error().message);
-          exitCode = kExitFailure;
-          return nullptr;
-        }
-        arrays->push_back(std::move(baked->array));
+      // One scene-wide array, as `somm bake` stores it: identical maps of all geometries stored once.
+      auto baked = bakeScene(*p->scene, bo);
+      if (!baked) {
+        printError(command, baked.error().message);
+        exitCode = kExitFailure;
+        return nullptr;
       }
-      (f == Format::FourState ? flat4 : flat2) = arrays;
+      (f == Format::FourState ? flat4 : flat2) = std::make_shared<const SceneMicromaps>(std::move(baked->micromaps));
     }
     p->bakeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     p->micromapSource = o.texelsPerMicroTri > 0
                             ? "baked in memory (adaptive, max level " + std::to_string(o.maxLevel) + ")"
                             : "baked in memory (level " + std::to_string(o.level) + ")";
   }
+  p->micromaps.splitSpecialIndices = !o.noSplit;
   p->micromaps.flat4 = flat4;
   p->micromaps.flat2 = flat2;
   uint32_t maxLevel = 0;
   if (flat4 || flat2)
-    for (const OmmArray& a : flat4 ? *flat4 : *flat2)
+    for (const OmmArray& a : (flat4 ? *flat4 : *flat2).arrays)
       for (const TriangleDescriptor& d : a.descriptors)
         maxLevel = std::max<uint32_t>(maxLevel, d.subdivisionLevel);
   p->micromaps.bitmaskLevel = std::min<uint32_t>(maxLevel, 10);

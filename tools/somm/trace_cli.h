@@ -24,6 +24,7 @@ struct TraceCliOptions {
   std::string filter = "auto";
   float cutoff = -1;  // < 0: each material's own
   bool blendAsMask = false;
+  bool noSplit = false;  // omm methods: keep special-index triangles on the filter path (for comparisons)
   bool json = false;
 };
 

@@ -15,9 +15,10 @@ PKGS_TRACE := libembree-dev                                    # somm::trace
 PKGS_CLI   := libcli11-dev nlohmann-json3-dev libzstd-dev liblzma-dev
 PKGS_TEST  := libgtest-dev libgmock-dev
 PKGS_BENCH := libbenchmark-dev
+PKGS_GPU   := libvulkan-dev libvulkan1 glslang-tools mesa-vulkan-drivers  # somm_gpu: build + lavapipe to test
 PKGS_FUZZ  := clang libclang-rt-14-dev                         # make fuzz only (~200 MB)
 PKGS_DEMO  := $(PKGS_BASE) $(PKGS_LIB) $(PKGS_IO) $(PKGS_TRACE) $(PKGS_CLI)
-PKGS_ALL   := $(PKGS_DEMO) $(PKGS_TEST) $(PKGS_BENCH)
+PKGS_ALL   := $(PKGS_DEMO) $(PKGS_TEST) $(PKGS_BENCH) $(PKGS_GPU)
 DEB_PKGS   := $(PKGS_ALL) $(PKGS_FUZZ)                         # everything (make deps)
 
 # $(call install_pkgs,LIST): apt-get install the missing ones.
@@ -33,7 +34,7 @@ define install_pkgs
 endef
 
 CONFIGURE_ALL := cmake -S . -B $(BUILD) $(CMAKE_GEN) -DCMAKE_BUILD_TYPE=Release -DSOMM_BUILD_CLI=ON \
-                 -DSOMM_BUILD_TRACE=ON -DSOMM_BUILD_TESTS=ON -DSOMM_BUILD_BENCH=ON
+                 -DSOMM_BUILD_TRACE=ON -DSOMM_BUILD_TESTS=ON -DSOMM_BUILD_BENCH=ON -DSOMM_BUILD_GPU=ON
 
 .PHONY: all deps deps-demo deps-all deps-fuzz configure build test sanitize fuzz fuzz-build bench demo format clean
 
@@ -58,7 +59,8 @@ test: build
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
 sanitize: deps-all
-	cmake -S . -B $(ASAN_BUILD) $(CMAKE_GEN) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSOMM_SANITIZE=ON -DSOMM_BUILD_BENCH=OFF
+	cmake -S . -B $(ASAN_BUILD) $(CMAKE_GEN) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSOMM_SANITIZE=ON -DSOMM_BUILD_BENCH=OFF \
+	  -DSOMM_BUILD_GPU=ON
 	cmake --build $(ASAN_BUILD) -j $(JOBS)
 	cd $(ASAN_BUILD) && ASAN_OPTIONS=detect_leaks=1:abort_on_error=0 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
 	  ctest --output-on-failure -j $(JOBS)
@@ -66,7 +68,8 @@ sanitize: deps-all
 # libFuzzer targets (clang, ASan+UBSan, separate build dir): each runs SECONDS seconds (docs/hardening.md).
 fuzz-build: deps-fuzz
 	cmake -S . -B $(FUZZ_BUILD) $(CMAKE_GEN) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
-	  -DCMAKE_C_COMPILER=clang -DSOMM_BUILD_FUZZ=ON -DSOMM_BUILD_TESTS=OFF -DSOMM_BUILD_BENCH=OFF -DSOMM_BUILD_TRACE=OFF
+	  -DCMAKE_C_COMPILER=clang -DSOMM_BUILD_FUZZ=ON -DSOMM_BUILD_TESTS=OFF -DSOMM_BUILD_BENCH=OFF -DSOMM_BUILD_TRACE=OFF \
+	  -DSOMM_BUILD_GPU=OFF
 	cmake --build $(FUZZ_BUILD) -j $(JOBS) --target somm_fuzzers
 
 fuzz: fuzz-build
@@ -80,7 +83,7 @@ bench: build
 demo: deps-demo
 	@if [ ! -f $(BUILD)/build.ninja ]; then \
 	  cmake -S . -B $(BUILD) $(CMAKE_GEN) -DCMAKE_BUILD_TYPE=Release -DSOMM_BUILD_CLI=ON -DSOMM_BUILD_TRACE=ON \
-	    -DSOMM_BUILD_TESTS=OFF -DSOMM_BUILD_BENCH=OFF; \
+	    -DSOMM_BUILD_TESTS=OFF -DSOMM_BUILD_BENCH=OFF -DSOMM_BUILD_GPU=OFF; \
 	fi
 	cmake --build $(BUILD) -j $(JOBS) --target somm
 	bash tools/demo.sh $(BUILD)/tools/somm/somm

@@ -186,3 +186,89 @@ for k in range(3):
         seed += bytes(dag_rng.randrange(256) for _ in range(3 * 6))
         seed += bytes([dag_rng.randrange(256), dag_rng.randrange(256)] + [dag_rng.randrange(256) for _ in range(16)])
     put("fuzz_encode", f"build_dag_{k}", bytes([2]) + seed)
+
+# fuzz_somm_file: version-2 .somm files (docs/somm-format.md) written here, checksums from the system libxxhash. The
+# version-1 seeds (v1_*) were written by the version-1 library and are kept as they are.
+import ctypes
+import ctypes.util
+
+_xxh = ctypes.CDLL(ctypes.util.find_library("xxhash") or "libxxhash.so.0")
+_xxh.XXH3_64bits.restype = ctypes.c_uint64
+_xxh.XXH3_64bits.argtypes = [ctypes.c_char_p, ctypes.c_size_t]
+_xxh.XXH3_64bits_withSeed.restype = ctypes.c_uint64
+_xxh.XXH3_64bits_withSeed.argtypes = [ctypes.c_char_p, ctypes.c_size_t, ctypes.c_uint64]
+
+
+def somm_string(s):
+    return struct.pack("<I", len(s)) + s.encode()
+
+
+def somm_chunk(ctype, index, payload):
+    head = ctype.encode() + struct.pack("<IQ", index, len(payload))
+    check = _xxh.XXH3_64bits_withSeed(payload, len(payload), _xxh.XXH3_64bits(head, 16))
+    out = head + struct.pack("<Q", check) + payload
+    return out + b"\0" * (-len(out) % 8)
+
+
+def somm_array(maps, indices):
+    """maps: list of (level, format 1|2, data bytes); indices: per triangle a map number or -1..-4."""
+    data = b""
+    desc = b""
+    for level, fmt, blob in maps:
+        desc += struct.pack("<IHH", len(data), level, fmt)
+        data += blob
+    hist = {}
+    for level, fmt, _ in maps:
+        hist[(fmt, level)] = hist.get((fmt, level), 0) + 1
+    tri = {}
+    for i in indices:
+        if i >= 0:
+            key = (maps[i][1], maps[i][0])
+            tri[key] = tri.get(key, 0) + 1
+    wide = len(maps) > 0xFFFB
+    out = struct.pack("<IIIIIIQ", len(indices), len(maps), 4 if wide else 2, len(hist), len(tri), 0, len(data)) + desc
+    for h in (hist, tri):
+        for (fmt, level) in sorted(h):
+            out += struct.pack("<III", h[(fmt, level)], level, fmt)
+    for i in indices:
+        out += struct.pack("<I" if wide else "<H", i & (0xFFFFFFFF if wide else 0xFFFF))
+    return out + data
+
+
+def somm_v2(geometries, arrays, encodings):
+    """geometries: (name, triangles, array, first, format, minLevel, maxLevel); arrays: FLAT payloads;
+    encodings: per array a list of (id, bytes)."""
+    meta = struct.pack("<II", len(geometries), len(arrays)) + somm_string("seed.gltf") + somm_string("somm seeds")
+    meta += struct.pack("<I", 2) + somm_string("level") + somm_string("2") + somm_string("arrays") + somm_string("scene")
+    body = somm_chunk("META", 0xFFFFFFFF, meta)
+    for g, (name, tris, array, first, fmt, lo, hi) in enumerate(geometries):
+        p = somm_string(name) + somm_string(name + "-mat") + struct.pack("<III", tris, array, first)
+        p += bytes([fmt, lo, hi, 1, 0, 0, 0, 0]) + f32(0.5) + struct.pack("<IQQQ", 0, tris * 16, tris * 3, 0)
+        body += somm_chunk("GEOM", g, p)
+    for a, flat in enumerate(arrays):
+        body += somm_chunk("FLAT", a, flat)
+        for eid, blob in encodings[a]:
+            body += somm_chunk("ENCD", a, eid.encode() + struct.pack("<I", 0) + blob)
+    body += somm_chunk("END ", 0xFFFFFFFF, b"")
+    size = 32 + len(body)
+    head = b"SOMM\r\n\x1a\n" + struct.pack("<IIQ", 2, 0, size)
+    return head + struct.pack("<Q", _xxh.XXH3_64bits(head, 24)) + body
+
+
+def random_map(level, fmt):
+    n = max(1, (4 ** level * (2 if fmt == 2 else 1) + 7) // 8)
+    return (level, fmt, bytes(rng.randrange(256) for _ in range(n)))
+
+
+# One scene-wide array shared by a 4-state and a 2-state geometry (with special indices), plus an empty geometry.
+maps = [random_map(2, 2), random_map(1, 2), random_map(2, 1), random_map(0, 2)]
+idx = [0, 1, -2, 0, 3, -1, 1] + [2, -1, 2, -2]
+put("fuzz_somm_file", "v2_scene_array", somm_v2(
+    [("leaves", 7, 0, 0, 2, 0, 2), ("bark", 4, 0, 7, 1, 2, 2), ("empty", 0, 0, 11, 2, 0, 0)],
+    [somm_array(maps, idx)], [[("dfs ", bytes(range(9))), ("rank", b"")]]))
+# One array per geometry, as `somm bake --arrays geometry` writes.
+put("fuzz_somm_file", "v2_per_geometry", somm_v2(
+    [("a", 3, 0, 0, 2, 1, 1), ("b", 2, 1, 0, 1, 2, 2)],
+    [somm_array([random_map(1, 2), random_map(1, 2)], [0, 1, -3]), somm_array([random_map(2, 1)], [0, 0])],
+    [[("hybr", bytes(13))], []]))
+put("fuzz_somm_file", "v2_empty", somm_v2([], [], []))

@@ -261,8 +261,9 @@ TriangleBake bakeTriangle(const AlphaMask& mask, std::array<float, 2> uv0, std::
                           std::array<float, 2> uv2, uint32_t level, Format format,
                           UnknownAs unknownAs = UnknownAs::Majority);
 
-// The safety margin (in texels) used for a triangle whose texel-space vertices are given: 1e-3 texel plus
-// 1e-5 of the largest vertex coordinate magnitude or extent (float interpolation error of a ray tracer, see
+// The safety margin (in texels) used for a triangle whose texel-space vertices are given: 6·2^-24·P + 2^-19·E +
+// 1e-9, P = the power of two above the largest coordinate magnitude, E = the larger of the x and y extents (the
+// float error bound of a ray tracer's UV interpolation and barycentrics up to 2^-20 outside a micro-triangle, see
 // docs/baking.md).
 double bakeMarginTexels(const double x[3], const double y[3]) noexcept;
 

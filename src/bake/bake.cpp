@@ -107,6 +107,11 @@ constexpr int64_t kLeafCells = 1024, kNodeCells = 4;
 // Texel coordinates at or beyond this magnitude make a triangle unknown (texelFloor clamps at 1e15).
 constexpr double kMaxTexelCoord = 1e14;
 
+// Safety margin (docs/baking.md): float UV interpolation error in units of 2^-24 · P, and how far (in barycentric
+// units) a hit point may lie outside the micro-triangle it is looked up in.
+constexpr double kInterpolationUlps = 6.0;
+constexpr double kBarycentricSlack = 0x1p-20;
+
 // Rows of cells beyond which a region is declared mixed without enumerating (still conservative).
 constexpr int64_t kMaxRows = int64_t(1) << 22;
 
@@ -261,6 +266,15 @@ struct TriangleClassifier {
       if (!slabExtent(X, Y, double(j) - m, double(j + 1) + m, xl, xr)) continue;
       const uint32_t ya = wrapFast(j, th, smp.wrapT), yb = wrapFast(j + 1, th, smp.wrapT);
       const int64_t a = cellFloor(xl - m), b = cellFloor(xr + m);
+      if (b - a >= 2) {
+        // A run whose corner texels all agree decides all its cells (each by its four corners) in O(1).
+        const unsigned run = rect(a, b, j, j);
+        if (run != kMixed) {
+          acc |= run;
+          if (acc == kMixed) return kMixed;
+          continue;
+        }
+      }
       for (int64_t i = a; i <= b; ++i) {
         const uint32_t xa = wrapFast(i, tw, smp.wrapS), xb = wrapFast(i + 1, tw, smp.wrapS);
         const float c00 = mask.texel(xa, ya), c10 = mask.texel(xb, ya), c01 = mask.texel(xa, yb),
@@ -336,9 +350,8 @@ struct TriangleClassifier {
 
   // The state an unknown micro-triangle gets: by majority of the alpha test at the centroids of its 4
   // children (ties: its own centroid), or as the 2-state option says.
-  State unknownState(const double X[3], const double Y[3]) const noexcept {
-    if (format == Format::TwoState && unknownAs != UnknownAs::Majority)
-      return unknownAs == UnknownAs::Opaque ? State::Opaque : State::Transparent;
+  // The alpha test at the centroids of the 4 children: how many pass.
+  int centroidPasses(const double X[3], const double Y[3]) const noexcept {
     // Child centroids in barycentric terms: (4,1,1)/6, (1,4,1)/6, (1,1,4)/6 and (1,1,1)/3 (the middle child).
     static constexpr double w[4][3] = {{4. / 6, 1. / 6, 1. / 6},
                                        {1. / 6, 4. / 6, 1. / 6},
@@ -347,6 +360,13 @@ struct TriangleClassifier {
     int pass = 0;
     for (const auto& b : w)
       pass += passesAt(b[0] * X[0] + b[1] * X[1] + b[2] * X[2], b[0] * Y[0] + b[1] * Y[1] + b[2] * Y[2]);
+    return pass;
+  }
+
+  // The state of an unknown micro-triangle whose centroidPasses are `pass`.
+  State unknownFrom(int pass, const double X[3], const double Y[3]) const noexcept {
+    if (format == Format::TwoState && unknownAs != UnknownAs::Majority)
+      return unknownAs == UnknownAs::Opaque ? State::Opaque : State::Transparent;
     bool opaque;
     if (pass != 2) {
       opaque = pass > 2;
@@ -357,6 +377,33 @@ struct TriangleClassifier {
     }
     if (format == Format::TwoState) return opaque ? State::Opaque : State::Transparent;
     return opaque ? State::UnknownOpaque : State::UnknownTransparent;
+  }
+
+  // The state an unknown micro-triangle gets: by majority of the alpha test at the centroids of its 4
+  // children (ties: a fifth point), or as the 2-state option says.
+  State unknownState(const double X[3], const double Y[3]) const noexcept {
+    if (format == Format::TwoState && unknownAs != UnknownAs::Majority)
+      return unknownAs == UnknownAs::Opaque ? State::Opaque : State::Transparent;
+    return unknownFrom(centroidPasses(X, Y), X, Y);
+  }
+
+  // The children of a node at depth level − 1 (leaves). Witnesses first: the 4 majority samples are points of the
+  // leaf's region; when they disagree the region is mixed (the region test is conservative, so it would say so
+  // too) and the leaf is unknown without a region test. Output identical to testing every leaf's region.
+  void leaves(const double cX[4][3], const double cY[4][3], uint32_t prefix) noexcept {
+    for (uint32_t c = 0; c < 4; ++c) {
+      const uint32_t index = prefix * 4 + c;
+      const int pass = centroidPasses(cX[c], cY[c]);
+      if (pass == 0 || pass == 4) {
+        const unsigned r = region(cX[c], cY[c], kLeafCells);
+        if (r == kPass || r == kFail) {
+          fill(index, 1, r == kPass ? State::Opaque : State::Transparent);
+          continue;
+        }
+      }
+      ++unknown;
+      fill(index, 1, unknownFrom(pass, cX[c], cY[c]));
+    }
   }
 
   // Node `prefix` at `depth` with cell-space vertices (X, Y) whose region class is `r`.
@@ -376,9 +423,8 @@ struct TriangleClassifier {
     // Child order of the bird curve (see indexToMicroTriangle).
     const double cX[4][3] = {{ax, abx, acx}, {acx, bcx, abx}, {abx, bx, bcx}, {bcx, acx, cx}};
     const double cY[4][3] = {{ay, aby, acy}, {acy, bcy, aby}, {aby, by, bcy}, {bcy, acy, cy}};
-    const int64_t limit = depth + 1 == level ? kLeafCells : kNodeCells;
-    for (uint32_t c = 0; c < 4; ++c)
-      node(cX[c], cY[c], depth + 1, prefix * 4 + c, region(cX[c], cY[c], limit));
+    if (depth + 1 == level) return leaves(cX, cY, prefix);
+    for (uint32_t c = 0; c < 4; ++c) node(cX[c], cY[c], depth + 1, prefix * 4 + c, region(cX[c], cY[c], kNodeCells));
   }
 };
 
@@ -1036,9 +1082,17 @@ AlphaMask::Count AlphaMask::count(int64_t x0, int64_t x1, int64_t y0, int64_t y1
 }
 
 double bakeMarginTexels(const double x[3], const double y[3]) noexcept {
+  // docs/baking.md "Safety margin": 6·2^-24·P (float UV interpolation, P = the power of two above the largest
+  // coordinate magnitude) + 2·2^-20·E (barycentrics up to 2^-20 outside the micro-triangle, E = the larger extent)
+  // + 1e-9 (the baker's own double arithmetic).
   double mag = 0;
   for (int k = 0; k < 3; ++k) mag = std::max(mag, std::max(std::fabs(x[k]), std::fabs(y[k])));
-  return 1e-3 + 1e-5 * mag;
+  const double ex = std::max(x[0], std::max(x[1], x[2])) - std::min(x[0], std::min(x[1], x[2]));
+  const double ey = std::max(y[0], std::max(y[1], y[2])) - std::min(y[0], std::min(y[1], y[2]));
+  int e = 0;
+  std::frexp(mag, &e);  // mag = f · 2^e, f in [0.5, 1): 2^e > mag (mag = 0: e = 0, P = 1)
+  const double P = std::ldexp(1.0, e);
+  return kInterpolationUlps * 0x1p-24 * P + 2 * kBarycentricSlack * std::max(ex, ey) + 1e-9;
 }
 
 uint32_t adaptiveLevel(std::array<float, 2> uv0, std::array<float, 2> uv1, std::array<float, 2> uv2,

@@ -51,6 +51,14 @@ class ObjLoader {
   std::filesystem::path dir_;
   Scene scene_;
   std::map<std::string, std::shared_ptr<const RawImage>> images_;
+  // Converted images, shared by every material that uses the same file (and channel): loaded once per path.
+  std::map<std::pair<std::string, int>, std::shared_ptr<const AlphaTexture>> alphas_;
+  std::map<std::string, std::shared_ptr<const ColorImage>> colors_;
+  std::shared_ptr<const AlphaTexture> alphaOf(const std::string& path, const RawImage& img, AlphaChannel ch) {
+    auto& a = alphas_[{path, int(ch)}];
+    if (!a) a = std::make_shared<const AlphaTexture>(toAlphaTexture(img, ch, 1.0f, true));
+    return a;
+  }
 };
 
 Result<std::shared_ptr<const RawImage>> ObjLoader::image(const std::string& texname,
@@ -104,7 +112,9 @@ Status ObjLoader::material(const tinyobj::material_t& tm, Material& m) {
     auto r = image(tm.diffuse_texname, m.name, kdPath);
     if (r.ok()) {
       kd = r.value();
-      m.baseColor = std::make_shared<const ColorImage>(toColorImage(*kd, true));
+      auto& c = colors_[kdPath];
+      if (!c) c = std::make_shared<const ColorImage>(toColorImage(*kd, true));
+      m.baseColor = c;
     } else if (!cannotCarryAlpha(kdPath) || std::filesystem::exists(kdPath)) {
       return r.error();
     } else {
@@ -139,14 +149,14 @@ Status ObjLoader::material(const tinyobj::material_t& tm, Material& m) {
                                   std::string(1, tm.alpha_texopt.imfchan) + "' unsupported, luminance used");
         ch = AlphaChannel::Luminance;
     }
-    m.alpha = std::make_shared<const AlphaTexture>(toAlphaTexture(*r.value(), ch, 1.0f, true));
+    m.alpha = alphaOf(dPath, *r.value(), ch);
     m.alphaSource = dPath;
     const Wrap w = tm.alpha_texopt.clamp ? Wrap::ClampToEdge : Wrap::Repeat;
     m.sampler.wrapS = m.sampler.wrapT = w;
     m.alphaMode = AlphaMode::Mask;
     checkOptions(tm.alpha_texopt, "map_d");
   } else if (kd && kd->hasAlpha()) {
-    m.alpha = std::make_shared<const AlphaTexture>(toAlphaTexture(*kd, AlphaChannel::AlphaOrOne, 1.0f, true));
+    m.alpha = alphaOf(kdPath, *kd, AlphaChannel::AlphaOrOne);
     m.alphaSource = kdPath;
     const Wrap w = tm.diffuse_texopt.clamp ? Wrap::ClampToEdge : Wrap::Repeat;
     m.sampler.wrapS = m.sampler.wrapT = w;

@@ -4,6 +4,8 @@
 // known state.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <random>
 
 #include "bake/bake_test_util.h"
@@ -125,6 +127,94 @@ TEST(Conservative, BarycentricsSlightlyOutside) {
     }
   }
   EXPECT_GT(checked, 100000u);
+}
+
+
+// The margin's derivation (docs/baking.md "Safety margin"), tested at its bound: (1) the float UV interpolation
+// error of the tracer, measured against exact arithmetic, stays below the margin's interpolation term 6·2^-24·P and
+// comes within a factor of 6 of it (so the term is not vacuous); (2) the hit points with the largest interpolation
+// errors, and barycentrics pushed 2^-20 (the margin's barycentric slack) outside their micro-triangle, never land on
+// a known state the alpha test contradicts — on UVs far from the origin (large float errors) and small triangles.
+TEST(Conservative, MarginAtItsBound) {
+  const auto textures = testing::proceduralTextures();
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> unit(0, 1);
+  double worst = 0;  // largest error / (2^-24 · max |X|)
+  uint64_t checked = 0;
+  const float offsets[] = {0.0f, 3.37f, -21.6f, 117.2f, 1000.3f};
+  const float sizes[] = {0.5f, 2.0f, 9.0f};  // texels
+  for (const auto& nt : textures) {
+    const double W = nt.tex.width, H = nt.tex.height;
+    for (Filter f : {Filter::Nearest, Filter::Linear}) {
+      const Sampler smp{Wrap::Repeat, Wrap::MirroredRepeat, f};
+      const AlphaMask mask(nt.tex, smp, 0.5f);
+      for (float off : offsets)
+        for (float size : sizes)
+          for (int k = 0; k < 4; ++k) {
+            float uv[3][2];
+            const double cx = off + unit(rng), cy = off * 0.5 + unit(rng);
+            for (int c = 0; c < 3; ++c) {
+              uv[c][0] = float(cx + (unit(rng) - 0.5) * size / W);
+              uv[c][1] = float(cy + (unit(rng) - 0.5) * size / H);
+            }
+            double X[3], Y[3], mag = 0;
+            for (int c = 0; c < 3; ++c) {
+              X[c] = double(uv[c][0]) * W;
+              Y[c] = double(uv[c][1]) * H;
+              mag = std::max({mag, std::fabs(X[c]), std::fabs(Y[c])});
+            }
+            int e = 0;
+            std::frexp(mag, &e);
+            const double interpTerm = 6 * 0x1p-24 * std::ldexp(1.0, e);
+            const uint32_t level = 5;
+            const TriangleBake b = bakeTriangle(mask, {uv[0][0], uv[0][1]}, {uv[1][0], uv[1][1]},
+                                                {uv[2][0], uv[2][1]}, level, Format::FourState);
+            // (1) + the points with the largest errors.
+            std::vector<std::pair<double, std::pair<float, float>>> errs;
+            for (int i = 0; i < 4000; ++i) {
+              double a = unit(rng), c = unit(rng);
+              if (a + c > 1) a = 1 - a, c = 1 - c;
+              const float b1 = float(a), b2 = float(c);
+              float S, T;
+              interpolateUV(uv, b1, b2, S, T);
+              const long double w = 1.0L - (long double)b1 - (long double)b2;
+              const long double s = w * uv[0][0] + (long double)b1 * uv[1][0] + (long double)b2 * uv[2][0];
+              const long double t = w * uv[0][1] + (long double)b1 * uv[1][1] + (long double)b2 * uv[2][1];
+              const double err = double(std::max(std::fabs((long double)S - s) * W, std::fabs((long double)T - t) * H));
+              ASSERT_LE(err, interpTerm) << nt.name << " offset " << off;
+              worst = std::max(worst, err / (0x1p-24 * mag));
+              errs.push_back({err, {b1, b2}});
+            }
+            std::partial_sort(errs.begin(), errs.begin() + 200, errs.end(),
+                              [](const auto& x, const auto& y) { return x.first > y.first; });
+            std::vector<std::pair<float, float>> points;
+            for (int i = 0; i < 200; ++i) points.push_back(errs[size_t(i)].second);
+            // (2) barycentrics 2^-20 outside micro-triangle edges (each vertex pushed away from the centroid).
+            for (uint32_t i = 0; i < b.map.size(); ++i) {
+              const MicroTriangle m = indexToMicroTriangle(i, level);
+              const double sc = 1.0 / double(1u << level);
+              double cu = 0, cv = 0;
+              for (int c = 0; c < 3; ++c) cu += m.v[c].u * sc / 3, cv += m.v[c].v * sc / 3;
+              for (int c = 0; c < 3; ++c) {
+                const double u = m.v[c].u * sc, v = m.v[c].v * sc;
+                const double du = u - cu, dv = v - cv, len = std::max(std::fabs(du), std::fabs(dv));
+                points.emplace_back(float(u + du / len * 0x1p-20), float(v + dv / len * 0x1p-20));
+              }
+            }
+            for (const auto& [b1, b2] : points) {
+              const State st = b.map.get(baryToIndex(b1, b2, level));
+              if (!isKnown(st)) continue;
+              float S, T;
+              interpolateUV(uv, b1, b2, S, T);
+              ASSERT_EQ(refAlpha(nt.tex, smp, S, T) >= 0.5f, st == State::Opaque)
+                  << nt.name << " offset " << off << " bary " << b1 << " " << b2;
+              ++checked;
+            }
+          }
+    }
+  }
+  EXPECT_GT(worst, 1.0);  // the measured error reaches > 1/6 of the margin's interpolation term
+  EXPECT_GT(checked, 20000u);
 }
 
 }  // namespace

@@ -188,11 +188,39 @@ TEST(CliInfo, TextNamesArraysAndGeometries) {
       << r.out;
   EXPECT_NE(r.out.find("geometry 2 'empty' (material 'empty-material'): 0 triangles"), std::string::npos)
       << r.out;
-  EXPECT_NE(r.out.find("total: 3 geometries, 1 arrays, 40 triangles"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("total: 3 geometries, 1 array, 40 triangles"), std::string::npos) << r.out;
   // Encodings by name (the sample's sections are opaque test bytes: listed as unreadable, never as ids).
   EXPECT_NE(r.out.find("dfs unreadable"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("hybrid unreadable"), std::string::npos) << r.out;
   EXPECT_EQ(r.out.find("hybr "), std::string::npos) << r.out;
+}
+
+// A version-1 file (one array per geometry; the fuzz seed written by the version-1 library) is read by every command.
+TEST(CliFile, Version1FilesAreRead) {
+  TempDir dir;
+  const std::string v1 = std::string(SOMM_DATA_DIR) + "/../fuzz/corpus/fuzz_somm_file/v1_one_2state";
+  RunResult r = runSomm("info " + shellQuote(v1) + " --json");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["version"], 1);
+  ASSERT_EQ(j["arrays"].size(), 1u);
+  EXPECT_EQ(j["geometries"][0]["array"], 0);
+  EXPECT_EQ(j["geometries"][0]["first_triangle"], 0);
+  auto f = readSommFile(v1);
+  ASSERT_TRUE(f.ok()) << f.error().message;
+  std::string want;
+  for (uint32_t t = 0; t < f->geometries[0].triangleCount; ++t)
+    want += char('0' + int(toTwoState(f->micromaps.stateUV(0, t, 0.2f, 0.3f)))), want += '\n';
+  std::string got;
+  for (uint32_t t = 0; t < f->geometries[0].triangleCount; ++t) {
+    r = runSomm("query " + shellQuote(v1) + " -g 0 -t " + std::to_string(t), "0.2 0.3\n");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    got += r.out;
+  }
+  EXPECT_EQ(got, want);
+  r = runSomm("export " + shellQuote(v1) + " --dir " + shellQuote(dir.file("x")));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_EQ(testing::readFile(dir.file("x") + "/array-0/data.bin").size(), f->micromaps.arrays[0].data.size());
 }
 
 TEST(CliQuery, MatchesStateUV) {

@@ -56,6 +56,27 @@ TEST(Obj, QuadIsFannedAndUvsAreKept) {
   EXPECT_FALSE(r->camera.has_value());
 }
 
+// Materials that use the same image file share one converted alpha texture and colour image (loaded once per path).
+TEST(Obj, MaterialsShareImagesOfOneFile) {
+  TempDir dir;
+  scenetest::writePng8(dir.file("tex.png"), 4, 2, 4, topOpaque());
+  writeFile(dir.file("q.obj"),
+            "mtllib q.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\n"
+            "usemtl a\nf 1/1 2/2 3/3\nusemtl b\nf 1/1 3/3 2/2\nusemtl c\nf 2/2 1/1 3/3\n");
+  writeFile(dir.file("q.mtl"),
+            "newmtl a\nmap_Kd tex.png\nnewmtl b\nmap_Kd tex.png\nnewmtl c\nmap_Kd tex.png\nmap_d -imfchan r tex.png\n");
+  auto r = somm::loadScene(dir.file("q.obj"));
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_EQ(r->materials.size(), 3u);
+  const auto &a = r->materials[0], &b = r->materials[1], &c = r->materials[2];
+  ASSERT_TRUE(a.alpha && b.alpha && c.alpha);
+  EXPECT_EQ(a.alpha.get(), b.alpha.get());
+  EXPECT_EQ(a.baseColor.get(), b.baseColor.get());
+  EXPECT_EQ(a.baseColor.get(), c.baseColor.get());
+  EXPECT_NE(a.alpha.get(), c.alpha.get());  // another channel of the same file
+  EXPECT_EQ(c.alpha->at(1, 0), 10 / 255.0f);
+}
+
 // The same asymmetric image through OBJ (v = 0 at the bottom row) and glTF (v = 0 at the top row).
 TEST(Obj, VFlipAgainstGltf) {
   TempDir dir;

@@ -213,8 +213,8 @@ int run(const Options& o) {
   const bool sceneArray = o.arrays == "scene";
 
   Progress progress;
-  // One scene-wide bake in the library (masks shared, identical triangles classified once, --max-bytes over all
-  // geometries). BLEND materials (without --blend-as-mask, which the loader applied) are not alpha-tested: no
+  // One bake of the whole scene in the library (masks shared, identical triangles classified once, --max-bytes over
+  // all arrays). BLEND materials (without --blend-as-mask, which the loader applied) are not alpha-tested: no
   // micromaps, every triangle unknown (the renderer's any-hit shader decides, as without OMMs).
   somm::BakeOptions sbo = bo;
   sbo.layout = sceneArray ? somm::ArrayLayout::SceneWide : somm::ArrayLayout::PerGeometry;
@@ -306,7 +306,7 @@ int run(const Options& o) {
   char frac[32], secs[32];
   std::snprintf(frac, sizeof frac, "%.3f%%", 100.0 * s.unknownFraction());
   std::snprintf(secs, sizeof secs, "%.2f", seconds);
-  out.put(o.output + ": " + std::to_string(sum.geometries.size()) + " geometries, " + std::to_string(s.triangles) +
+  out.put(o.output + ": " + counted(sum.geometries.size(), "geometry", "geometries") + ", " + std::to_string(s.triangles) +
           " triangles baked in " + secs + " s into " +
           (sceneArray ? std::string("one scene-wide OMM array")
                       : std::to_string(sum.arrays.size()) + " OMM arrays (one per geometry)") +

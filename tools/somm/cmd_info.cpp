@@ -191,7 +191,7 @@ int run(const Options& o) {
   }
   for (uint32_t a = 0; a < m.arrays.size(); ++a) {
     const ArraySummary& s = sum.arrays[a];
-    out.put("array " + std::to_string(a) + ": " + std::to_string(s.geometries) + " geometries, " +
+    out.put("array " + std::to_string(a) + ": " + counted(s.geometries, "geometry", "geometries") + ", " +
             std::to_string(s.triangles) + " triangles, " + std::to_string(s.uniqueMicromaps) +
             " unique micromaps\n");
     printArray(out, s, "  ");
@@ -211,8 +211,8 @@ int run(const Options& o) {
     printGeometry(out, sum.geometries[i], "  ");
   }
   const GeometrySummary& t = sum.geometryTotal;
-  out.put("total: " + std::to_string(f.geometries.size()) + " geometries, " + std::to_string(m.arrays.size()) +
-          " arrays, " + std::to_string(t.triangles) + " triangles, " +
+  out.put("total: " + counted(f.geometries.size(), "geometry", "geometries") + ", " +
+          counted(m.arrays.size(), "array", "arrays") + ", " + std::to_string(t.triangles) + " triangles, " +
           std::to_string(sum.arrayTotal.uniqueMicromaps) + " unique micromaps\n");
   out.put("  special indices (triangles): transparent " + std::to_string(t.special[0]) + ", opaque " +
           std::to_string(t.special[1]) + ", unknown-transparent " + std::to_string(t.special[2]) +

@@ -172,6 +172,10 @@ std::string levelList(const std::array<uint64_t, 13>& perLevel) {
   return out.empty() ? "-" : out;
 }
 
+std::string counted(uint64_t n, const char* singular, const char* plural) {
+  return std::to_string(n) + " " + (n == 1 ? singular : plural);
+}
+
 std::string humanBytes(uint64_t bytes) {
   char buf[32];
   if (bytes < 1024) return std::to_string(bytes) + " B";

@@ -70,6 +70,9 @@ nlohmann::json geometrySummaryJson(const GeometrySummary& s);
 // "0:12 3:40" — level:count pairs with non-zero counts.
 std::string levelList(const std::array<uint64_t, 13>& perLevel);
 
+// "1 array", "3 arrays": a count with its noun.
+std::string counted(uint64_t n, const char* singular, const char* plural);
+
 // Human-readable byte count ("1.5 MiB").
 std::string humanBytes(uint64_t bytes);
 // "98626 B (96.3 KiB)": exact bytes, and the human-readable size when it differs.

@@ -1,0 +1,341 @@
+// SPDX-License-Identifier: MIT
+// bakeScene: views of the caller's memory (texel formats, strides, index widths), one pool over all geometries with
+// identical work done once, scene-level policy (BLEND, maxBytes, layouts), cancellation — each checked against the
+// per-geometry bake of the same data.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "bake/bake_test_util.h"
+#include "somm/bake.h"
+
+namespace somm {
+namespace {
+
+// 8-bit alpha values (so every texel format can hold them exactly) with a soft disc and noise.
+std::vector<uint8_t> alpha8(uint32_t w, uint32_t h) {
+  std::vector<uint8_t> a(size_t(w) * h);
+  for (uint32_t y = 0; y < h; ++y)
+    for (uint32_t x = 0; x < w; ++x) {
+      const double dx = (x + 0.5) / w - 0.5, dy = (y + 0.5) / h - 0.5;
+      const double r = std::sqrt(dx * dx + dy * dy) + 0.03 * std::sin(x * 0.7) * std::cos(y * 1.3);
+      a[size_t(y) * w + x] = uint8_t(std::lround(std::clamp(1.0 - (r - 0.3) * 10, 0.0, 1.0) * 255));
+    }
+  return a;
+}
+
+AlphaTexture floatTexture(const std::vector<uint8_t>& a, uint32_t w, uint32_t h) {
+  AlphaTexture t;
+  t.width = w;
+  t.height = h;
+  for (uint8_t v : a) t.alpha.push_back(float(double(v) / 255.0));
+  return t;
+}
+
+std::vector<float> randomUvs(uint32_t triangles, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> c(-0.2f, 1.2f), d(-0.15f, 0.15f);
+  std::vector<float> uv;
+  for (uint32_t t = 0; t < triangles; ++t) {
+    const float x = c(rng), y = c(rng);
+    for (int k = 0; k < 6; ++k) uv.push_back((k % 2 ? y : x) + d(rng));
+  }
+  return uv;
+}
+
+Geometry geometryOf(const std::vector<float>& uv, const char* name) {
+  Geometry g;
+  g.name = name;
+  g.uvs = uv;
+  for (uint32_t i = 0; i < uv.size() / 2; ++i) g.indices.push_back(i);
+  return g;
+}
+
+void expectSameArray(const OmmArray& a, const OmmArray& b) {
+  EXPECT_EQ(a.data, b.data);
+  EXPECT_EQ(a.descriptors, b.descriptors);
+  EXPECT_EQ(a.indices, b.indices);
+  EXPECT_EQ(a.histogram, b.histogram);
+  EXPECT_EQ(a.triangleHistogram, b.triangleHistogram);
+}
+
+const Sampler kSampler{Wrap::Repeat, Wrap::MirroredRepeat, Filter::Linear};
+
+TEST(BakeScene, EveryTexelFormatAndLayoutGivesTheFloatBake) {
+  const uint32_t W = 48, H = 40;
+  const std::vector<uint8_t> a = alpha8(W, H);
+  const AlphaTexture ft = floatTexture(a, W, H);
+  const std::vector<float> uv = randomUvs(200, 3);
+  // Reference: the per-geometry bake of the float texture.
+  Material m;
+  m.name = "m";
+  m.alphaMode = AlphaMode::Mask;
+  m.sampler = kSampler;
+  m.alpha = std::make_shared<AlphaTexture>(ft);
+  BakeOptions o;
+  o.level = 4;
+  auto ref = bakeGeometry(geometryOf(uv, "g"), m, o);
+  ASSERT_TRUE(ref.ok());
+
+  // Every format, alpha in a non-zero channel where there is one, rows padded.
+  for (TexelFormat f : {TexelFormat::R8, TexelFormat::RG8, TexelFormat::RGBA8, TexelFormat::R16, TexelFormat::RGBA16,
+                        TexelFormat::R32F}) {
+    const uint32_t channels = texelChannels(f), bytes = texelBytes(f), ch = channels - 1;
+    const size_t pitch = size_t(W) * bytes + 12;
+    std::vector<uint8_t> img(pitch * H, 0x5a);
+    for (uint32_t y = 0; y < H; ++y)
+      for (uint32_t x = 0; x < W; ++x) {
+        uint8_t* p = img.data() + y * pitch + x * bytes;
+        const uint8_t v = a[size_t(y) * W + x];
+        if (f == TexelFormat::R32F) {
+          const float fv = float(double(v) / 255.0);
+          std::memcpy(p, &fv, 4);
+        } else if (bytes / channels == 2) {
+          const uint16_t v16 = uint16_t(v * 257);
+          std::memcpy(p + 2 * ch, &v16, 2);
+        } else {
+          p[ch] = v;
+        }
+      }
+    // UVs with a stride of 5 floats, 16-bit indices.
+    std::vector<float> strided;
+    for (size_t i = 0; i < uv.size() / 2; ++i) strided.insert(strided.end(), {uv[2 * i], uv[2 * i + 1], 7, 7, 7});
+    std::vector<uint16_t> idx;
+    for (uint16_t i = 0; i < uv.size() / 2; ++i) idx.push_back(i);
+    TextureView tv;
+    tv.data = img.data();
+    tv.width = W;
+    tv.height = H;
+    tv.rowPitch = pitch;
+    tv.format = f;
+    tv.alphaChannel = ch;
+    MaterialInput mi;
+    mi.texture = 0;
+    mi.sampler = kSampler;
+    GeometryInput gi;
+    gi.uvs = strided.data();
+    gi.uvStride = 5 * sizeof(float);
+    gi.vertexCount = uint32_t(uv.size() / 2);
+    gi.indices = idx.data();
+    gi.indexFormat = IndexFormat::UInt16;
+    gi.triangleCount = uint32_t(uv.size() / 6);
+    BakeInputs in{&tv, 1, &mi, 1, &gi, 1};
+    for (ArrayLayout layout : {ArrayLayout::SceneWide, ArrayLayout::PerGeometry}) {
+      BakeOptions so = o;
+      so.layout = layout;
+      auto r = bakeScene(in, so);
+      ASSERT_TRUE(r.ok()) << r.error().message;
+      ASSERT_EQ(r->micromaps.arrays.size(), 1u);
+      expectSameArray(r->micromaps.arrays[0], ref->array);
+      EXPECT_EQ(r->geometries[0].levels, ref->levels);
+      EXPECT_EQ(r->geometries[0].stats.unknownMicroTriangles, ref->stats.unknownMicroTriangles) << texelFormatName(f);
+      EXPECT_EQ(r->total.uniqueMaps, ref->stats.uniqueMaps);
+    }
+    // No index buffer: triangle t = vertices 3t..3t+2.
+    gi.indices = nullptr;
+    gi.indexFormat = IndexFormat::None;
+    auto r = bakeScene(in, o);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    expectSameArray(r->micromaps.arrays[0], ref->array);
+  }
+}
+
+// A scene of several geometries sharing textures, with repeated and period-shifted triangles.
+Scene sharedScene() {
+  Scene s;
+  const uint32_t W = 32, H = 32;
+  auto tex = std::make_shared<AlphaTexture>(floatTexture(alpha8(W, H), W, H));
+  for (int k = 0; k < 3; ++k) {
+    Material m;
+    m.name = "m" + std::to_string(k);
+    m.alphaMode = AlphaMode::Mask;
+    m.sampler = Sampler{Wrap::Repeat, k == 2 ? Wrap::ClampToEdge : Wrap::Repeat, Filter::Linear};
+    m.alpha = tex;  // shared
+    s.materials.push_back(m);
+  }
+  Material opaque;
+  opaque.name = "opaque";
+  s.materials.push_back(opaque);
+  std::vector<float> base = randomUvs(60, 9);
+  for (uint32_t g = 0; g < 6; ++g) {
+    std::vector<float> uv = base;
+    // Geometries 1 and 5: shifted by whole periods, (5, 5) and (6, 6) (the same binade: the same float rounding and
+    // margin); geometry 3: each triangle of geometry 0 twice.
+    if (g == 1 || g == 5)
+      for (float& c : uv) c += g == 1 ? 5.0f : 6.0f;
+    if (g == 3) uv.insert(uv.end(), base.begin(), base.end());
+    Geometry geo = geometryOf(uv, ("g" + std::to_string(g)).c_str());
+    geo.material = g == 4 ? 3u : g == 5 ? 0u : g % 3;
+    s.geometries.push_back(geo);
+  }
+  return s;
+}
+
+TEST(BakeScene, SceneArrayEqualsMergedPerGeometryBakes) {
+  const Scene s = sharedScene();
+  BakeOptions o;
+  o.level = 3;
+  std::vector<OmmArray> per;
+  uint64_t unknown = 0;
+  for (const Geometry& g : s.geometries) {
+    auto r = bakeGeometry(g, s.materials[g.material], o);
+    ASSERT_TRUE(r.ok());
+    unknown += r->stats.unknownMicroTriangles;
+    per.push_back(r->array);
+  }
+  const SceneMicromaps merged = mergeToSceneArray(perGeometryMicromaps(per));
+  for (uint32_t threads : {1u, 2u, 4u, 0u}) {
+    o.threads = threads;
+    auto r = bakeScene(s, o);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    ASSERT_EQ(r->micromaps.arrays.size(), 1u);
+    expectSameArray(r->micromaps.arrays[0], merged.arrays[0]);
+    EXPECT_EQ(r->micromaps.geometries, merged.geometries);
+    EXPECT_EQ(r->total.unknownMicroTriangles, unknown);
+    EXPECT_EQ(r->masks, 2u);  // (texture, sampler): materials 0 and 1 share one
+    // Geometry 3 repeats geometry 0's inputs, geometry 5 geometry 1's after removing whole periods: only
+    // geometries 0, 1 and 2 are classified.
+    EXPECT_EQ(r->classifiedTriangles, 180u);
+    for (uint32_t g = 0; g < s.geometries.size(); ++g) {
+      const OmmArray own = r->micromaps.standalone(g);
+      expectSameArray(own, per[g]);
+      EXPECT_EQ(r->geometries[g].stats.uniqueMaps, per[g].descriptors.size());
+      EXPECT_EQ(r->geometries[g].stats.dataBytes, per[g].data.size());
+    }
+  }
+  o.layout = ArrayLayout::PerGeometry;
+  auto r = bakeScene(s, o);
+  ASSERT_TRUE(r.ok());
+  ASSERT_EQ(r->micromaps.arrays.size(), s.geometries.size());
+  for (uint32_t g = 0; g < s.geometries.size(); ++g) expectSameArray(r->micromaps.arrays[g], per[g]);
+}
+
+TEST(BakeScene, MaxBytesIsSceneWide) {
+  const Scene s = sharedScene();
+  BakeOptions o;
+  o.level = 5;
+  auto full = bakeScene(s, o);
+  ASSERT_TRUE(full.ok());
+  o.maxBytes = full->total.dataBytes / 3;
+  auto r = bakeScene(s, o);
+  ASSERT_TRUE(r.ok());
+  EXPECT_LE(r->total.dataBytes, o.maxBytes);
+  EXPECT_LT(r->total.levelCap, 5u);
+  // The cap is the highest that fits: one more level does not.
+  BakeOptions above = o;
+  above.maxBytes = 0;
+  above.level = r->total.levelCap + 1;
+  auto a = bakeScene(s, above);
+  ASSERT_TRUE(a.ok());
+  EXPECT_GT(a->total.dataBytes, o.maxBytes);
+}
+
+TEST(BakeScene, BlendNeedsAPolicy) {
+  Scene s = sharedScene();
+  s.materials[1].alphaMode = AlphaMode::Blend;
+  BakeOptions o;
+  o.level = 2;
+  auto r = bakeScene(s, o);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("material 'm1' has alpha mode BLEND"), std::string::npos) << r.error().message;
+  o.blend = BlendAs::Unknown;
+  r = bakeScene(s, o);
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(r->geometries[1].stats.specialCount[size_t(State::UnknownOpaque)], s.geometries[1].triangleCount());
+  EXPECT_EQ(r->geometries[1].stats.unknownMicroTriangles, s.geometries[1].triangleCount());
+  o.blend = BlendAs::Opaque;
+  r = bakeScene(s, o);
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(r->geometries[1].stats.specialCount[size_t(State::Opaque)], s.geometries[1].triangleCount());
+  o.blend = BlendAs::Mask;
+  r = bakeScene(s, o);
+  ASSERT_TRUE(r.ok());
+  auto own = bakeGeometry(s.geometries[1], s.materials[1], o);
+  expectSameArray(r->micromaps.standalone(1), own->array);
+  // Opaque is opaque only when stated; the zero-initialised material input is baked.
+  EXPECT_EQ(r->geometries[4].stats.specialCount[size_t(State::Opaque)], s.geometries[4].triangleCount());
+  EXPECT_EQ(MaterialInput{}.alpha, MaterialAlpha::Tested);
+}
+
+TEST(BakeScene, ErrorsInLibraryTerms) {
+  Scene s = sharedScene();
+  BakeOptions o;
+  o.level = 13;
+  auto r = bakeScene(s, o);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().message, "level 13 is out of range (0..12)");
+  o.level = 2;
+  s.geometries[2].indices[4] = 999;
+  r = bakeScene(s, o);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().message, "geometry 2 'g2': index 999 out of range (180 vertices with UVs)");
+  TextureView tv;
+  uint8_t px[4] = {};
+  tv.data = px;
+  tv.width = 2;
+  tv.height = 1;
+  tv.format = TexelFormat::RG8;
+  tv.alphaChannel = 2;
+  tv.name = "t.png";
+  EXPECT_EQ(validateTexture(tv).error().message, "texture 't.png': alpha channel 2 is out of range for RG8");
+  tv.alphaChannel = 1;
+  tv.rowPitch = 3;
+  EXPECT_EQ(validateTexture(tv).error().message, "texture 't.png': row pitch 3 is less than width * 2 = 4");
+}
+
+TEST(BakeScene, ProgressCanCancel) {
+  const Scene s = sharedScene();
+  BakeOptions o;
+  o.level = 3;
+  std::vector<double> seen;
+  o.progress = [&](double f) { seen.push_back(f); };
+  ASSERT_TRUE(bakeScene(s, o).ok());
+  ASSERT_FALSE(seen.empty());
+  EXPECT_TRUE(std::is_sorted(seen.begin(), seen.end()));
+  EXPECT_EQ(seen.back(), 1.0);
+  o.progress = [](double) { return false; };
+  auto r = bakeScene(s, o);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, ErrorCode::Cancelled);
+}
+
+}  // namespace
+}  // namespace somm
+
+namespace somm {
+namespace {
+
+// classifyRegion (the baker's test for one barycentric sub-triangle, for the tracer's bitmask) agrees with the bake:
+// a micro-triangle's region is Opaque / Transparent exactly when the bake made it known with that state.
+TEST(ClassifyRegion, AgreesWithTheBakedMicroTriangles) {
+  const uint32_t W = 48, H = 40;
+  const AlphaTexture tex = floatTexture(alpha8(W, H), W, H);
+  for (Filter f : {Filter::Nearest, Filter::Linear}) {
+    const AlphaMask mask(tex, Sampler{Wrap::Repeat, Wrap::ClampToEdge, f}, 0.5f);
+    const std::vector<float> uv = randomUvs(40, 11);
+    uint64_t known = 0;
+    for (size_t t = 0; t < uv.size() / 6; ++t) {
+      const std::array<float, 2> a{uv[6 * t], uv[6 * t + 1]}, b{uv[6 * t + 2], uv[6 * t + 3]},
+          c{uv[6 * t + 4], uv[6 * t + 5]};
+      const uint32_t level = 3;
+      const Micromap map = bakeTriangle(mask, a, b, c, level, Format::FourState).map;
+      for (uint32_t i = 0; i < map.size(); ++i) {
+        const MicroTriangle m = indexToMicroTriangle(i, level);
+        std::array<double, 2> corners[3];
+        for (int k = 0; k < 3; ++k) corners[k] = {m.v[k].u / 8.0, m.v[k].v / 8.0};
+        const State s = classifyRegion(mask, a, b, c, corners);
+        const State baked = map.get(i);
+        EXPECT_EQ(isKnown(s) ? s : State::UnknownOpaque, isKnown(baked) ? baked : State::UnknownOpaque)
+            << "triangle " << t << " micro " << i;
+        known += isKnown(baked);
+      }
+      const std::array<double, 2> whole[3] = {{0, 0}, {1, 0}, {0, 1}};
+      const auto u = bakeTriangle(mask, a, b, c, 0, Format::FourState).map.get(0);
+      EXPECT_EQ(classifyRegion(mask, a, b, c, whole), isKnown(u) ? u : State::UnknownOpaque);
+    }
+    EXPECT_GT(known, 100u);
+  }
+}
+
+}  // namespace
+}  // namespace somm

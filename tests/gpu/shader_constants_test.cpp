@@ -1,0 +1,152 @@
+// SPDX-License-Identifier: MIT
+// The layout constants of shaders/somm.glsl and somm.hlsl equal the C++ ones, and both files define the same
+// functions.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <map>
+#include <regex>
+#include <set>
+#include <sstream>
+#include <string>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+#include "somm/bird.h"
+#include "somm/encode.h"
+#include "somm/micromap.h"
+#include "somm_test_arrays.h"
+
+namespace {
+
+std::string readShader(const char* name) {
+  std::ifstream f(std::string(SOMM_SHADER_DIR) + "/" + name);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+// "const uint SOMM_X = 12u;" / "static const uint SOMM_X = 0x434e4553u;"
+std::map<std::string, uint64_t> constants(const std::string& src) {
+  std::map<std::string, uint64_t> out;
+  const std::regex re(R"((?:static )?const uint (SOMM_[A-Z0-9_]+) = (0x[0-9a-fA-F]+|[0-9]+)u;)");
+  for (auto it = std::sregex_iterator(src.begin(), src.end(), re); it != std::sregex_iterator(); ++it)
+    out[(*it)[1]] = std::stoull((*it)[2], nullptr, 0);
+  return out;
+}
+
+// The value of an enumerator that exists only once the csm / sdag encodings are in (the encode stage); -1 before.
+#define SOMM_ENUMERATOR_OR_NONE(Type, Name)                                         \
+  ([](auto tag) -> int64_t {                                                        \
+    using T = typename decltype(tag)::type;                                         \
+    if constexpr (requires { T::Name; }) return int64_t(T::Name);                   \
+    else return -1;                                                                 \
+  }(std::type_identity<Type>{}))
+
+std::set<std::string> functions(const std::string& src) {
+  std::set<std::string> out;
+  const std::regex re(R"((?:uint|bool|void|SommArray) (somm[A-Za-z0-9]+)\(([^)]*)\).*)");
+  std::istringstream in(src);
+  std::smatch m;
+  for (std::string line; std::getline(in, line);)
+    if (std::regex_match(line, m, re)) out.insert(m[1].str() + "(" + m[2].str() + ")");
+  return out;
+}
+
+TEST(ShaderConstants, EqualTheCppLayout) {
+  const std::map<std::string, uint64_t> expected = {
+      {"SOMM_MAX_LEVEL", somm::kMaxLevel},
+      {"SOMM_STATE_TRANSPARENT", uint64_t(somm::State::Transparent)},
+      {"SOMM_STATE_OPAQUE", uint64_t(somm::State::Opaque)},
+      {"SOMM_STATE_UNKNOWN_TRANSPARENT", uint64_t(somm::State::UnknownTransparent)},
+      {"SOMM_STATE_UNKNOWN_OPAQUE", uint64_t(somm::State::UnknownOpaque)},
+      {"SOMM_ARRAY_MAGIC", 0x434e4553u},  // "SENC"; the serialized bytes are checked below
+      {"SOMM_ARRAY_HEADER_BYTES", somm::encode::kArrayHeaderBytes},
+      {"SOMM_DESCRIPTOR_BYTES", somm::encode::kDescriptorBytes},
+      {"SOMM_TAIL_PADDING", somm::encode::kTailPadding},
+      {"SOMM_RANK_BLOCK_BITS", somm::encode::kRankBlockBits},
+      {"SOMM_ENCODING_FLAT", uint64_t(somm::Encoding::Flat)},
+      {"SOMM_ENCODING_DFS", uint64_t(somm::Encoding::Dfs)},
+      {"SOMM_ENCODING_DFS_FAST", uint64_t(somm::Encoding::DfsFast)},
+      {"SOMM_ENCODING_RANK", uint64_t(somm::Encoding::Rank)},
+      {"SOMM_ENCODING_HYBRID", uint64_t(somm::Encoding::Hybrid)},
+      {"SOMM_KIND_FLAT", uint64_t(somm::MapKind::Flat)},
+      {"SOMM_KIND_DFS", uint64_t(somm::MapKind::Dfs)},
+      {"SOMM_KIND_RANK", uint64_t(somm::MapKind::Rank)},
+      {"SOMM_FORMAT_2_STATE", uint64_t(somm::Format::TwoState)},
+      {"SOMM_FORMAT_4_STATE", uint64_t(somm::Format::FourState)},
+  };
+  const std::pair<const char*, int64_t> dag[] = {
+      {"SOMM_ENCODING_CSM", SOMM_ENUMERATOR_OR_NONE(somm::Encoding, Csm)},
+      {"SOMM_ENCODING_SDAG", SOMM_ENUMERATOR_OR_NONE(somm::Encoding, Sdag)},
+      {"SOMM_KIND_CSM", SOMM_ENUMERATOR_OR_NONE(somm::MapKind, Csm)},
+      {"SOMM_KIND_SDAG", SOMM_ENUMERATOR_OR_NONE(somm::MapKind, Sdag)},
+  };
+  for (const char* file : {"somm.glsl", "somm.hlsl"}) {
+    const std::string src = readShader(file);
+    ASSERT_FALSE(src.empty()) << file;
+    std::map<std::string, uint64_t> c = constants(src);
+    // The DAG encodings (docs/encodings.md: the sdag directory is 64 bytes): checked when the C++ has them.
+    EXPECT_EQ(c["SOMM_SDAG_DIRECTORY_BYTES"], 64u) << file;
+    c.erase("SOMM_SDAG_DIRECTORY_BYTES");
+    for (const auto& [name, value] : dag) {
+      if (value >= 0) {
+        EXPECT_EQ(c[name], uint64_t(value)) << file << " " << name;
+      }
+      c.erase(name);
+    }
+    EXPECT_EQ(c, expected) << file;
+  }
+}
+
+uint32_t le32(const std::vector<uint8_t>& b, size_t at) {
+  return uint32_t(b[at]) | uint32_t(b[at + 1]) << 8 | uint32_t(b[at + 2]) << 16 | uint32_t(b[at + 3]) << 24;
+}
+
+// The header fields where sommArray() reads them: magic at 0, encoding at byte 5, index size at 6, triangles at
+// 8, maps at 12, the index buffer at 20, then descriptors (offset u32, level, format, kind).
+TEST(ShaderConstants, ArrayHeaderFieldsWhereTheShaderReadsThem) {
+  for (const char* file : {"somm.glsl", "somm.hlsl"}) {
+    const std::map<std::string, uint64_t> c = constants(readShader(file));
+    const somm::OmmArray flat = somm::testing::randomOmmArray(30, somm::Format::FourState, 1, 4, 9);
+    for (somm::Encoding e : somm::kAllEncodings) {
+      auto a = somm::EncodedArray::build(flat, e);
+      ASSERT_TRUE(a);
+      const std::vector<uint8_t> b = a->serialize();
+      EXPECT_EQ(le32(b, 0), c.at("SOMM_ARRAY_MAGIC")) << file;
+      EXPECT_EQ(b[5], uint8_t(e));
+      EXPECT_EQ(b[6], uint8_t(a->indexType()));
+      EXPECT_EQ(le32(b, 8), a->triangleCount());
+      EXPECT_EQ(le32(b, 12), a->mapCount());
+      const size_t desc = c.at("SOMM_ARRAY_HEADER_BYTES") + size_t(a->triangleCount()) * b[6];
+      for (uint32_t m = 0; m < a->mapCount(); ++m) {
+        const size_t d = desc + m * c.at("SOMM_DESCRIPTOR_BYTES");
+        EXPECT_EQ(le32(b, d), a->maps()[m].offset);
+        EXPECT_EQ(b[d + 4], a->maps()[m].level);
+        EXPECT_EQ(b[d + 5], a->maps()[m].format);
+        EXPECT_EQ(b[d + 6], uint8_t(a->maps()[m].kind));
+      }
+      const size_t data = desc + size_t(a->mapCount()) * c.at("SOMM_DESCRIPTOR_BYTES");
+      EXPECT_EQ(b.size(), data + a->dataBytes() + a->paddingBytes());
+      if (e != somm::Encoding::Flat) {
+        EXPECT_EQ(a->paddingBytes(), c.at("SOMM_TAIL_PADDING"));
+      }
+    }
+  }
+}
+
+TEST(ShaderConstants, GlslAndHlslDefineTheSameFunctions) {
+  const std::set<std::string> glsl = functions(readShader("somm.glsl"));
+  const std::set<std::string> hlsl = functions(readShader("somm.hlsl"));
+  EXPECT_GE(glsl.size(), 20u);
+  EXPECT_EQ(glsl, hlsl);
+  for (const char* f : {"sommBaryToIndex", "sommStateUV", "sommState", "sommFlatState", "sommDfsState",
+                        "sommDfsFastState", "sommRankState"}) {
+    bool found = false;
+    for (const std::string& s : glsl) found = found || s.rfind(std::string(f) + "(", 0) == 0;
+    EXPECT_TRUE(found) << f;
+  }
+}
+
+}  // namespace

@@ -6,9 +6,15 @@
 #include <benchmark/benchmark.h>
 #include <time.h>
 
+#include <lzma.h>
+
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
 #include <map>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "somm/bake.h"
@@ -157,7 +163,7 @@ void runLookups(benchmark::State& state, const Scene& s, uint32_t level) {
   }
   const EncodedArray e = EncodedArray::build(s.flat, E).value();
   // The paper's lookups cost ~4^level at level 12: time them on the first 4096 queries only.
-  const size_t nq = (E == Encoding::Dfs || E == Encoding::DfsFast) && level == 12 ? 4096 : s.tri.size();
+  const size_t nq = (E == Encoding::Dfs || E == Encoding::DfsFast) && level >= 10 ? 4096 : s.tri.size();
   for (size_t i = 0; i < nq; ++i)
     if (e.stateUVAs<E>(s.tri[i], s.u[i], s.v[i]) != s.want[i]) {
       state.SkipWithError("lookup differs from the flat OMM array");
@@ -176,6 +182,134 @@ void runLookups(benchmark::State& state, const Scene& s, uint32_t level) {
   state.counters["x_flat"] = ns / s.flatNs;
   state.counters["bytes"] = double(e.byteSize());
   state.counters["bytes_x_flat"] = double(e.byteSize()) / double(s.flatBytes);
+}
+
+// ---- real foliage (../shared/assets/foliage, or $SOMM_FOLIAGE_DIR): one scene-wide array per scene ----
+//
+// Every geometry baked with the library baker at the level (4-state), merged into one scene-wide array
+// (mergeToSceneArray, as the default bake stores it), then every encoding of that array: bytes and their ratios
+// to flat, dfs, csm and xz -9 of the flat array, and ns per random lookup against flat in the same run.
+// Skipped when the assets are absent.
+
+uint64_t xz9(const std::vector<uint8_t>& bytes) {
+  lzma_options_lzma opt;
+  if (lzma_lzma_preset(&opt, 9)) return 0;
+  opt.dict_size = uint32_t(std::clamp<uint64_t>(bytes.size(), LZMA_DICT_SIZE_MIN, opt.dict_size));
+  lzma_filter filters[2] = {{LZMA_FILTER_LZMA2, &opt}, {LZMA_VLI_UNKNOWN, nullptr}};
+  std::vector<uint8_t> out(lzma_stream_buffer_bound(bytes.size()));
+  size_t pos = 0;
+  if (lzma_stream_buffer_encode(filters, LZMA_CHECK_CRC64, nullptr, bytes.data(), bytes.size(), out.data(), &pos,
+                                out.size()) != LZMA_OK)
+    return 0;
+  return pos;
+}
+
+std::string foliageDir() {
+  const char* env = std::getenv("SOMM_FOLIAGE_DIR");
+  return env ? env : SOMM_FOLIAGE_DIR;
+}
+
+// 0: torcs-forza/forza.obj, 1: zeroad/flora-quarter.obj, 2: every redeclipse/obj/*.obj as one scene.
+std::vector<std::string> realSceneFiles(int which) {
+  const std::string d = foliageDir();
+  if (which == 0) return {d + "/torcs-forza/forza.obj"};
+  if (which == 1) return {d + "/zeroad/flora-quarter.obj"};
+  std::vector<std::string> files;
+  std::error_code ec;
+  for (const auto& e : std::filesystem::directory_iterator(d + "/redeclipse/obj", ec))
+    if (e.path().extension() == ".obj") files.push_back(e.path().string());
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+struct RealScene : Scene {
+  uint64_t dfsBytes = 0, csmBytes = 0, xzBytes = 0;
+};
+
+const RealScene& realScene(int which, uint32_t level) {
+  static std::map<std::pair<int, uint32_t>, RealScene> cache;
+  auto it = cache.find({which, level});
+  if (it != cache.end()) return it->second;
+  RealScene s;
+  std::vector<OmmArray> perGeometry;
+  bool ok = true;
+  for (const std::string& file : realSceneFiles(which)) {
+    if (!std::filesystem::exists(file)) {
+      ok = false;
+      break;
+    }
+    auto scene = loadScene(file);
+    if (!scene) {
+      ok = false;
+      break;
+    }
+    BakeOptions o;
+    o.level = level;
+    o.format = Format::FourState;
+    for (const Geometry& g : scene->geometries) {
+      if (g.material >= scene->materials.size()) continue;
+      auto baked = bakeGeometry(g, scene->materials[g.material], o);
+      if (!baked) {
+        ok = false;
+        break;
+      }
+      perGeometry.push_back(std::move(baked->array));
+    }
+  }
+  if (ok && !perGeometry.empty()) {
+    SceneMicromaps sm = mergeToSceneArray(perGeometryMicromaps(std::move(perGeometry)));
+    s.flat = std::move(sm.arrays[0]);
+    s.dfsBytes = EncodedArray::build(s.flat, Encoding::Dfs).value().byteSize();
+    s.csmBytes = EncodedArray::build(s.flat, Encoding::Csm).value().byteSize();
+    s.xzBytes = xz9(EncodedArray::build(s.flat, Encoding::Flat).value().serialize());
+    // Queries on triangles that have a micromap.
+    std::vector<uint32_t> withMap;
+    for (uint32_t t = 0; t < s.flat.indices.size(); ++t)
+      if (s.flat.indices[t] >= 0) withMap.push_back(t);
+    if (!withMap.empty()) {
+      std::mt19937 rng(level * 11 + uint32_t(which));
+      std::uniform_real_distribution<float> uf(0.f, 1.f);
+      for (size_t q = 0; q < (1u << 16); ++q) {
+        float u = uf(rng), v = uf(rng);
+        if (u + v > 1.f) u = 1.f - u, v = 1.f - v;
+        s.tri.push_back(withMap[rng() % withMap.size()]);
+        s.u.push_back(u);
+        s.v.push_back(v);
+        s.want.push_back(s.flat.stateUV(s.tri.back(), u, v));
+      }
+      const EncodedArray flat = EncodedArray::build(s.flat, Encoding::Flat).value();
+      s.flatBytes = flat.byteSize();
+      s.flatNs =
+          nsPerLookup(s, [&](uint32_t t, float u, float v) { return flat.stateUVAs<Encoding::Flat>(t, u, v); });
+    }
+  }
+  if (s.tri.empty()) s.flat = OmmArray{};
+  return cache.emplace(std::make_pair(which, level), std::move(s)).first->second;
+}
+
+template <Encoding E>
+void BM_LookupFoliage(benchmark::State& state) {
+  const uint32_t level = uint32_t(state.range(1));
+  const RealScene& s = realScene(int(state.range(0)), level);
+  if (s.flat.indices.empty()) {
+    state.SkipWithError("foliage scene unavailable (set SOMM_FOLIAGE_DIR)");
+    return;
+  }
+  runLookups<E>(state, s, level);
+  const double bytes = state.counters["bytes"];
+  state.counters["bytes_x_dfs"] = bytes / double(s.dfsBytes);
+  state.counters["bytes_x_csm"] = bytes / double(s.csmBytes);
+  state.counters["bytes_x_xz"] = bytes / double(s.xzBytes);
+  state.counters["maps"] = double(s.flat.descriptors.size());
+}
+
+// Scenes 0 (TORCS forza), 1 (0 A.D. flora), 2 (Red Eclipse, 18 models) at levels 8, 10, 12 (4-state). Levels
+// above 8 bake every map at that level: the 0 A.D. and TORCS scenes (thousands of maps) only at 8.
+void foliageArgs(benchmark::internal::Benchmark* b) {
+  for (int scene : {0, 1, 2})
+    for (int level : {8, 10, 12})
+      if (level == 8 || scene == 2) b->Args({scene, level});
+  b->ArgNames({"scene", "level"});
 }
 
 template <Encoding E>
@@ -201,10 +335,21 @@ BENCHMARK(BM_Lookup<Encoding::Dfs>)->Apply(levelsAndFormats);
 BENCHMARK(BM_Lookup<Encoding::DfsFast>)->Apply(levelsAndFormats);
 BENCHMARK(BM_Lookup<Encoding::Rank>)->Apply(levelsAndFormats);
 BENCHMARK(BM_Lookup<Encoding::Hybrid>)->Apply(levelsAndFormats);
+BENCHMARK(BM_Lookup<Encoding::Csm>)->Apply(levelsAndFormats);
+BENCHMARK(BM_Lookup<Encoding::Sdag>)->Apply(levelsAndFormats);
 BENCHMARK(BM_LookupOak<Encoding::Flat>)->Apply(levelsAndFormats);
 BENCHMARK(BM_LookupOak<Encoding::Dfs>)->Apply(levelsAndFormats);
 BENCHMARK(BM_LookupOak<Encoding::DfsFast>)->Apply(levelsAndFormats);
 BENCHMARK(BM_LookupOak<Encoding::Rank>)->Apply(levelsAndFormats);
 BENCHMARK(BM_LookupOak<Encoding::Hybrid>)->Apply(levelsAndFormats);
+BENCHMARK(BM_LookupOak<Encoding::Csm>)->Apply(levelsAndFormats);
+BENCHMARK(BM_LookupOak<Encoding::Sdag>)->Apply(levelsAndFormats);
+BENCHMARK(BM_LookupFoliage<Encoding::Flat>)->Apply(foliageArgs)->Iterations(3);
+BENCHMARK(BM_LookupFoliage<Encoding::Dfs>)->Apply(foliageArgs)->Iterations(1);
+BENCHMARK(BM_LookupFoliage<Encoding::DfsFast>)->Apply(foliageArgs)->Iterations(1);
+BENCHMARK(BM_LookupFoliage<Encoding::Rank>)->Apply(foliageArgs)->Iterations(3);
+BENCHMARK(BM_LookupFoliage<Encoding::Hybrid>)->Apply(foliageArgs)->Iterations(3);
+BENCHMARK(BM_LookupFoliage<Encoding::Csm>)->Apply(foliageArgs)->Iterations(3);
+BENCHMARK(BM_LookupFoliage<Encoding::Sdag>)->Apply(foliageArgs)->Iterations(3);
 
 }  // namespace

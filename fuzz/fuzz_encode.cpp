@@ -7,8 +7,8 @@
 //   1: validateMap on one blob (kind, level, format from the next bytes), copied into a buffer of exactly the
 //      validated size + kTailPadding so that any read past it is caught; every index looked up, equal to
 //      decodeMap.
-//   2: build: micromaps made from the bytes → OmmArray → every encoding; lookups equal flat, decode() is
-//   bit-exact,
+//   2: build: micromaps made from the bytes → OmmArray → every encoding (csm and sdag included: the maps share
+//      subtrees, some are repeated with a few states changed); lookups equal flat, decode() is bit-exact,
 //      serialise → parse round-trips.
 #include <cstddef>
 #include <cstdint>
@@ -74,6 +74,12 @@ void checkArray(const EncodedArray& a) {
       break;
     case Encoding::Hybrid:
       checkAs<Encoding::Hybrid>(a, flat);
+      break;
+    case Encoding::Csm:
+      checkAs<Encoding::Csm>(a, flat);
+      break;
+    case Encoding::Sdag:
+      checkAs<Encoding::Sdag>(a, flat);
       break;
   }
   for (uint32_t t = 0; t < a.triangleCount(); ++t)
@@ -157,6 +163,12 @@ void modeBuild(const uint8_t* data, size_t size) {
       at += byte() % 8;
     }
     b.add(m);
+    // A near-copy (one run of states changed): identical subtrees for the array-wide DAGs to share.
+    if (head & 0x40 && m.size() > 1) {
+      const uint32_t from = uint32_t(byte()) * m.size() / 256u;
+      for (uint32_t i = from; i < m.size() && i < from + 1u + byte() % 16u; ++i) m.set(i, State(byte() & 3));
+      b.add(m);
+    }
   }
   const somm::OmmArray flat = b.finish();
   for (Encoding e : somm::kAllEncodings) {

@@ -176,6 +176,16 @@ for kind in range(3):
     for level in (0, 1, 3, 5):
         put("fuzz_encode", f"map_k{kind}_l{level}", bytes([1, kind | (level << 2), level & 1]) +
             bytes(rng.randrange(256) for _ in range(8 + 4 ** level // 2)))
+# Build scripts whose maps (head bit 0x40) are added twice, the second time with a run of states changed: subtrees
+# for csm / sdag to share (levels 3..6, both formats). Own generator, so that the seeds above stay as they were.
+dag_rng = random.Random(1234)
+for k in range(3):
+    seed = b""
+    for t in range(6):
+        seed += bytes([0x40 | (3 + (t + k) % 4) | (0x80 if t % 2 else 0), 6])
+        seed += bytes(dag_rng.randrange(256) for _ in range(3 * 6))
+        seed += bytes([dag_rng.randrange(256), dag_rng.randrange(256)] + [dag_rng.randrange(256) for _ in range(16)])
+    put("fuzz_encode", f"build_dag_{k}", bytes([2]) + seed)
 
 # fuzz_somm_file: version-2 .somm files (docs/somm-format.md) written here, checksums from the system libxxhash. The
 # version-1 seeds (v1_*) were written by the version-1 library and are kept as they are.

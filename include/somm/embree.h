@@ -215,6 +215,10 @@ RTCFilterFunctionN selectFilter(const EncodedArray* encoded, bool fourState, boo
       return pickFilter<Data, EncodedLookup<Encoding::Rank>>(fourState, count);
     case Encoding::Hybrid:
       return pickFilter<Data, EncodedLookup<Encoding::Hybrid>>(fourState, count);
+    case Encoding::Csm:
+      return pickFilter<Data, EncodedLookup<Encoding::Csm>>(fourState, count);
+    case Encoding::Sdag:
+      return pickFilter<Data, EncodedLookup<Encoding::Sdag>>(fourState, count);
   }
   return nullptr;
 }

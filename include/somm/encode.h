@@ -40,18 +40,20 @@
 
 namespace somm {
 
-enum class Encoding : uint8_t { Flat = 0, Dfs = 1, DfsFast = 2, Rank = 3, Hybrid = 4 };
-inline constexpr Encoding kAllEncodings[] = {Encoding::Flat, Encoding::Dfs, Encoding::DfsFast, Encoding::Rank,
-                                             Encoding::Hybrid};
+enum class Encoding : uint8_t { Flat = 0, Dfs = 1, DfsFast = 2, Rank = 3, Hybrid = 4, Csm = 5, Sdag = 6 };
+inline constexpr Encoding kAllEncodings[] = {Encoding::Flat,   Encoding::Dfs, Encoding::DfsFast, Encoding::Rank,
+                                             Encoding::Hybrid, Encoding::Csm, Encoding::Sdag};
+inline constexpr uint32_t kEncodingCount = 7;
 
-// "flat", "dfs", "dfs-fast", "rank", "hybrid".
+// "flat", "dfs", "dfs-fast", "rank", "hybrid", "csm", "sdag".
 const char* encodingName(Encoding e) noexcept;
 std::optional<Encoding> parseEncodingName(std::string_view name) noexcept;
 // A comma-separated list of names or "all" (every encoding, in kAllEncodings order; duplicates removed).
 Result<std::vector<Encoding>> parseEncodingList(std::string_view list);
 
 // How one micromap is stored.
-enum class MapKind : uint8_t { Flat = 0, Dfs = 1, Rank = 2 };
+// Csm and Sdag maps are roots into the array-wide DAG (docs/encodings.md); the others are self-contained blobs.
+enum class MapKind : uint8_t { Flat = 0, Dfs = 1, Rank = 2, Csm = 3, Sdag = 4 };
 const char* mapKindName(MapKind k) noexcept;
 
 namespace encode {
@@ -298,6 +300,96 @@ inline State rankState(const uint8_t* blob, uint32_t level, Format f, uint32_t i
   return getValue(fl, valueBase, f, x - internal);
 }
 
+// ---- array-wide DAGs: csm (Chernaik, Modisett & Billeter, HPG 2026) and sdag (ours) ----
+//
+// Both cut a map's quadtree into 16-way nodes of two levels each, aligned at the bottom: a "leaf" holds the 16
+// states of a level-2 subtree, a node of height h (>= 2) has 16 children of height h-1, each covering 16^(h-1)
+// micro-triangles; child `slot` of the node met at bird-curve index bits [s, s+4) is (index >> s) & 15 (the
+// unmodified index, 4 bits per DAG level). A map of odd level L >= 3 has a 4-way root (2 index bits, children of
+// height (L-1)/2); levels 0 and 1 are one byte of states. Identical subtrees of every map of the array (one
+// array = the scene) are stored once (hash-consing).
+inline uint32_t load16(const uint8_t* p) noexcept {
+  return uint32_t(p[0]) | uint32_t(p[1]) << 8;
+}
+inline uint32_t load32(const uint8_t* p) noexcept {
+  uint32_t w;
+  std::memcpy(&w, p, 4);
+  return w;
+}
+inline State packedState(const uint8_t* p, Format f, uint32_t i) noexcept {
+  return getValue(p, 0, f, i);
+}
+
+// csm: node = u16 child mask (1 = child present; absent = fully transparent) + one u32 byte offset (into the
+// array's data buffer) per present child in slot order; leaf = 16 states (2 or 4 bytes). Uniform non-transparent
+// subtrees are ordinary (shared) nodes. `data` = the array's data buffer, `offset` = the map's root.
+inline State csmState(const uint8_t* data, uint32_t offset, uint32_t level, Format f, uint32_t index) noexcept {
+  const uint8_t* p = data + offset;
+  if (level <= 1) return getValue(p, 0, f, index);
+  uint32_t shift = 2 * level;
+  if (level & 1u) {
+    shift -= 2;
+    const uint32_t slot = index >> shift, m = load16(p);
+    if (!((m >> slot) & 1u)) return State::Transparent;
+    p = data + load32(p + 2 + 4 * popcount64(m & ((1u << slot) - 1u)));
+  }
+  while (shift > 4) {
+    shift -= 4;
+    const uint32_t slot = (index >> shift) & 15u, m = load16(p);
+    if (!((m >> slot) & 1u)) return State::Transparent;
+    p = data + load32(p + 2 + 4 * popcount64(m & ((1u << slot) - 1u)));
+  }
+  return getValue(p, 0, f, index & 15u);
+}
+
+// sdag: the data buffer starts with a 64-byte directory: u32 base[13] (byte offset of region k = (format-1)·6 +
+// height-1, base[12] = end of the regions) and u8 width[12] (bits of a reference into region k). A node of
+// height h in region (f, h): u16 mask M (1 = child is a node), the states of the uniform children (M bit 0) in
+// slot order, b bits each, then one width[(f, h-1)]-bit reference per node child in slot order: a leaf index
+// into region (f, 1) (leaves are 2b bytes) or a byte offset into region (f, h-1); byte-aligned records. The
+// mask is the node's rank directory: the child's state or reference sits at popcount(M below the slot) —
+// counts and the bits they count are in the same record.
+inline constexpr uint32_t kSdagDirectoryBytes = 64;
+inline constexpr uint32_t kSdagRegions = 12;
+constexpr uint32_t sdagRegion(Format f, uint32_t height) noexcept {
+  return (uint32_t(f) - 1u) * 6u + height - 1u;
+}
+struct SdagDirectory {
+  uint32_t base[kSdagRegions + 1] = {};
+  uint8_t width[kSdagRegions] = {};
+  friend bool operator==(const SdagDirectory& a, const SdagDirectory& b) noexcept {
+    return std::memcmp(&a, &b, sizeof(SdagDirectory)) == 0;
+  }
+};
+inline const uint8_t* sdagChild(const uint8_t* data, const SdagDirectory& dir, Format f, uint32_t height,
+                                uint32_t ref) noexcept {
+  const uint32_t k = sdagRegion(f, height);
+  return data + dir.base[k] + (height == 1 ? ref * 2u * bitsPerState(f) : ref);
+}
+inline State sdagState(const uint8_t* data, const SdagDirectory& dir, uint32_t offset, uint32_t level, Format f,
+                       uint32_t index) noexcept {
+  const uint8_t* p = data + offset;
+  if (level <= 1) return getValue(p, 0, f, index);
+  const uint32_t b = bitsPerState(f);
+  uint32_t shift = 2 * level, h = level >> 1;
+  if (level & 1u) {  // 4-way root: M in bits 0..3, states from bit 4
+    shift -= 2;
+    const uint32_t slot = index >> shift, m = p[0] & 15u, below = popcount64(m & ((1u << slot) - 1u));
+    if (!((m >> slot) & 1u)) return getValue(p, 4, f, slot - below);
+    const uint32_t w = dir.width[sdagRegion(f, h)];
+    p = sdagChild(data, dir, f, h, getBits(p, 4 + b * (4 - popcount64(m)) + w * below, w));
+  }
+  while (h >= 2) {
+    shift -= 4;
+    const uint32_t slot = (index >> shift) & 15u, m = load16(p), below = popcount64(m & ((1u << slot) - 1u));
+    if (!((m >> slot) & 1u)) return getValue(p, 16, f, slot - below);
+    --h;
+    const uint32_t w = dir.width[sdagRegion(f, h)];
+    p = sdagChild(data, dir, f, h, getBits(p, 16 + b * (16 - popcount64(m)) + w * below, w));
+  }
+  return getValue(p, 0, f, index & 15u);
+}
+
 // Encode / decode one map. Encoding a map is deterministic and canonical (maximal collapse).
 std::vector<uint8_t> encodeMap(const Micromap& map, MapKind kind);
 // Decodes a blob produced by encodeMap (trusted input).
@@ -334,6 +426,18 @@ class EncodedArray {
   // The data bytes, without the tail padding.
   Span<const uint8_t> data() const noexcept { return {data_.data(), dataBytes_}; }
   IndexType indexType() const noexcept { return indexType_; }
+  // The sdag directory (zero unless hasDirectory(): always for sdag, for hybrid when a map is of kind Sdag).
+  bool hasDirectory() const noexcept { return hasDirectory_; }
+  const encode::SdagDirectory& directory() const noexcept { return dir_; }
+  // The encoding whose bytes serve this array: dfs-fast is the dfs tree with another lookup, so it is stored
+  // as dfs (a .somm file keeps one dfs section for both).
+  static Encoding storedEncoding(Encoding e) noexcept { return e == Encoding::DfsFast ? Encoding::Dfs : e; }
+  // The same bytes with another lookup: dfs <-> dfs-fast (false, unchanged, for any other pair).
+  bool setLookup(Encoding e) noexcept {
+    if (storedEncoding(e) != storedEncoding(encoding_) || storedEncoding(e) != Encoding::Dfs) return e == encoding_;
+    encoding_ = e;
+    return true;
+  }
 
   // Exact sizes: the serialized form, which is also what a GPU needs for random access (docs/encodings.md):
   //   byteSize = 20 + triangles·indexBytes + 8·maps + dataBytes + padding.
@@ -357,6 +461,10 @@ class EncodedArray {
         return stateAs<Encoding::Rank>(triangle, index);
       case Encoding::Hybrid:
         return stateAs<Encoding::Hybrid>(triangle, index);
+      case Encoding::Csm:
+        return stateAs<Encoding::Csm>(triangle, index);
+      case Encoding::Sdag:
+        return stateAs<Encoding::Sdag>(triangle, index);
     }
     return State::Transparent;
   }
@@ -372,6 +480,10 @@ class EncodedArray {
         return stateUVAs<Encoding::Rank>(triangle, u, v);
       case Encoding::Hybrid:
         return stateUVAs<Encoding::Hybrid>(triangle, u, v);
+      case Encoding::Csm:
+        return stateUVAs<Encoding::Csm>(triangle, u, v);
+      case Encoding::Sdag:
+        return stateUVAs<Encoding::Sdag>(triangle, u, v);
     }
     return State::Transparent;
   }
@@ -400,6 +512,11 @@ class EncodedArray {
     if constexpr (E == Encoding::Dfs) return encode::dfsState(blob, d.level, f, index);
     if constexpr (E == Encoding::DfsFast) return encode::dfsFastState(blob, d.level, f, index);
     if constexpr (E == Encoding::Rank) return encode::rankState(blob, d.level, f, index);
+    if constexpr (E == Encoding::Csm) return encode::csmState(data_.data(), d.offset, d.level, f, index);
+    if constexpr (E == Encoding::Sdag) {
+      if (d.kind == MapKind::Flat) return encode::flatState(blob, d.level, f, index);
+      return encode::sdagState(data_.data(), dir_, d.offset, d.level, f, index);
+    }
     if constexpr (E == Encoding::Hybrid) {
       switch (d.kind) {
         case MapKind::Flat:
@@ -408,6 +525,10 @@ class EncodedArray {
           return encode::dfsFastState(blob, d.level, f, index);
         case MapKind::Rank:
           return encode::rankState(blob, d.level, f, index);
+        case MapKind::Sdag:
+          return encode::sdagState(data_.data(), dir_, d.offset, d.level, f, index);
+        case MapKind::Csm:
+          return encode::csmState(data_.data(), d.offset, d.level, f, index);
       }
     }
     return State::Transparent;
@@ -426,7 +547,8 @@ class EncodedArray {
   static Result<EncodedArray> parse(Span<const uint8_t> bytes, std::string_view what = "encoded array");
 
   friend bool operator==(const EncodedArray& a, const EncodedArray& b) {
-    return a.encoding_ == b.encoding_ && a.indexType_ == b.indexType_ && a.indices_ == b.indices_ && a.maps_ == b.maps_ && a.data_ == b.data_ && a.dataBytes_ == b.dataBytes_;
+    return a.encoding_ == b.encoding_ && a.indexType_ == b.indexType_ && a.indices_ == b.indices_ && a.maps_ == b.maps_ && a.data_ == b.data_ && a.dataBytes_ == b.dataBytes_ &&
+           a.hasDirectory_ == b.hasDirectory_ && a.dir_ == b.dir_;
   }
   friend bool operator!=(const EncodedArray& a, const EncodedArray& b) noexcept { return !(a == b); }
 
@@ -437,6 +559,8 @@ class EncodedArray {
   std::vector<EncodedMapDesc> maps_;
   std::vector<uint8_t> data_;  // dataBytes_ + padding
   uint64_t dataBytes_ = 0;
+  bool hasDirectory_ = false;
+  encode::SdagDirectory dir_{};
 };
 
 // Checks that a (parsed, validated) encoded array answers exactly like the flat spec buffers it was stored

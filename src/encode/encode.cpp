@@ -5,6 +5,7 @@
 #include <array>
 #include <map>
 #include <tuple>
+#include <unordered_map>
 
 namespace somm {
 
@@ -20,6 +21,10 @@ const char* encodingName(Encoding e) noexcept {
       return "rank";
     case Encoding::Hybrid:
       return "hybrid";
+    case Encoding::Csm:
+      return "csm";
+    case Encoding::Sdag:
+      return "sdag";
   }
   return "?";
 }
@@ -47,7 +52,8 @@ Result<std::vector<Encoding>> parseEncodingList(std::string_view list) {
     } else {
       return makeError(
           ErrorCode::InvalidArgument,
-          "unknown encoding '" + std::string(name) + "' (expected flat, dfs, dfs-fast, rank, hybrid or all)");
+          "unknown encoding '" + std::string(name) +
+                           "' (expected flat, dfs, dfs-fast, rank, hybrid, csm, sdag or all)");
     }
     if (comma == std::string_view::npos) break;
     start = comma + 1;
@@ -63,6 +69,10 @@ const char* mapKindName(MapKind k) noexcept {
       return "dfs";
     case MapKind::Rank:
       return "rank";
+    case MapKind::Csm:
+      return "csm";
+    case MapKind::Sdag:
+      return "sdag";
   }
   return "?";
 }
@@ -261,6 +271,9 @@ std::vector<uint8_t> encodeMap(const Micromap& map, MapKind kind) {
       return encodeDfs(map);
     case MapKind::Rank:
       return encodeRank(map);
+    case MapKind::Csm:
+    case MapKind::Sdag:
+      break;  // array-wide DAGs: EncodedArray::build
   }
   return {};
 }
@@ -307,6 +320,9 @@ Micromap decodeMap(const uint8_t* blob, MapKind kind, uint32_t level, Format f) 
       for (uint64_t start : starts) out.set(uint32_t(start), getValue(fl, valueBase, f, leaf++));
       break;
     }
+    case MapKind::Csm:
+    case MapKind::Sdag:
+      break;  // array-wide DAGs: EncodedArray::decode
   }
   return out;
 }
@@ -415,8 +431,477 @@ Result<uint64_t> validateMap(const uint8_t* blob, uint64_t available, MapKind ki
       }
       return size;
     }
+    case MapKind::Csm:
+    case MapKind::Sdag:
+      break;
   }
-  return corrupt("unknown micromap kind");
+  return corrupt("micromap kind is not a self-contained blob");
+}
+
+// ---------------------------------------------------------------- array-wide DAGs (csm, sdag)
+
+namespace {
+
+using Key = std::array<uint32_t, 16>;
+struct KeyHash {
+  size_t operator()(const Key& k) const noexcept {
+    uint64_t h = 0x9e3779b97f4a7c15ull;
+    for (uint32_t v : k) {
+      h = (h ^ v) * 0xff51afd7ed558ccdull;
+      h ^= h >> 29;
+    }
+    return size_t(h);
+  }
+};
+
+constexpr uint32_t kNodeCode = 4;  // child codes: a state s < 4 (uniform child), or kNodeCode + record id
+
+// Unique records per (format, height) = sdag region index: leaves keyed by their 16 states (2 bits each in
+// key[0]), nodes by their 16 child codes. Ids in order of first appearance (children before parents).
+struct DagTables {
+  struct Table {
+    std::unordered_map<Key, uint32_t, KeyHash> ids;
+    std::vector<Key> records;
+  };
+  std::array<Table, kSdagRegions> t;
+  std::vector<std::pair<uint32_t, uint32_t>>* created = nullptr;  // (region, id) of every new record
+
+  uint32_t intern(uint32_t region, const Key& k) {
+    Table& tb = t[region];
+    const auto [it, fresh] = tb.ids.emplace(k, uint32_t(tb.records.size()));
+    if (fresh) {
+      tb.records.push_back(k);
+      if (created) created->emplace_back(region, it->second);
+    }
+    return it->second;
+  }
+  uint32_t find(uint32_t region, const Key& k) const { return t[region].ids.at(k); }
+};
+
+using NodeVals = std::vector<std::vector<uint8_t>>;
+
+uint32_t internRecord(const NodeVals& vals, uint32_t level, Format f, uint32_t d, uint64_t i, DagTables& tables);
+
+uint32_t internSubtree(const NodeVals& vals, uint32_t level, Format f, uint32_t d, uint64_t i, DagTables& tables) {
+  if (vals[d][i] != kMixed) return vals[d][i];
+  return kNodeCode + internRecord(vals, level, f, d, i, tables);
+}
+
+// The 16-way record of quadtree node (d, i) (level - d even, >= 2), uniform or not.
+uint32_t internRecord(const NodeVals& vals, uint32_t level, Format f, uint32_t d, uint64_t i, DagTables& tables) {
+  const uint32_t h = (level - d) / 2;
+  Key k{};
+  if (h == 1) {
+    for (uint32_t s = 0; s < 16; ++s) k[0] |= uint32_t(vals[level][16 * i + s]) << (2 * s);
+  } else {
+    for (uint32_t s = 0; s < 16; ++s) k[s] = internSubtree(vals, level, f, d + 2, 16 * i + s, tables);
+  }
+  return tables.intern(sdagRegion(f, h), k);
+}
+
+Key uniformKey(uint32_t h, uint32_t s) {
+  Key k{};
+  if (h == 1) {
+    for (uint32_t i = 0; i < 16; ++i) k[0] |= s << (2 * i);
+  } else {
+    k.fill(s);
+  }
+  return k;
+}
+
+// A map's root: levels 0/1 one byte of states; even levels a record of height L/2; odd levels a 4-way root.
+struct DagRoot {
+  uint32_t level = 0;
+  Format format = Format::TwoState;
+  uint8_t byte = 0;                    // levels 0, 1
+  uint32_t id = 0;                     // even levels >= 2: record id in region (format, L/2)
+  std::array<uint32_t, 4> children{};  // odd levels >= 3: child codes (height (L-1)/2)
+};
+
+DagRoot internMap(const Micromap& m, DagTables& tables) {
+  DagRoot r;
+  r.level = m.level();
+  r.format = m.format();
+  const uint32_t b = bitsPerState(m.format());
+  if (r.level <= 1) {
+    for (uint32_t i = 0; i < m.size(); ++i) r.byte = uint8_t(r.byte | uint32_t(m.get(i)) << (b * i));
+    return r;
+  }
+  const NodeVals vals = nodeValues(m);
+  if (r.level % 2 == 0) {
+    r.id = internRecord(vals, r.level, r.format, 0, 0, tables);
+  } else {
+    for (uint32_t c = 0; c < 4; ++c) r.children[c] = internSubtree(vals, r.level, r.format, 1, c, tables);
+  }
+  return r;
+}
+
+uint32_t bitsFor(uint64_t n) {  // bits to hold 0 .. n-1
+  uint32_t w = 0;
+  while (w < 32 && (uint64_t(1) << w) < n) ++w;
+  return w;
+}
+
+uint32_t nodeChildren(const Key& k, uint32_t slots) {
+  uint32_t n = 0;
+  for (uint32_t s = 0; s < slots; ++s) n += k[s] >= kNodeCode;
+  return n;
+}
+
+uint64_t sdagNodeBytes(const Key& k, uint32_t slots, uint32_t b, uint32_t w) {
+  const uint32_t n = nodeChildren(k, slots);
+  return (slots + b * (slots - n) + uint64_t(w) * n + 7) / 8;
+}
+
+// Per region: the byte offset of every record and the reference width into it.
+struct SdagLayout {
+  std::array<std::vector<uint32_t>, kSdagRegions> offset;
+  std::array<uint64_t, kSdagRegions> bytes{};
+  std::array<uint8_t, kSdagRegions> width{};
+};
+
+SdagLayout sdagLayout(const DagTables& tables) {
+  SdagLayout l;
+  for (Format f : {Format::TwoState, Format::FourState}) {
+    const uint32_t b = bitsPerState(f);
+    for (uint32_t h = 1; h <= 6; ++h) {
+      const uint32_t k = sdagRegion(f, h);
+      const auto& recs = tables.t[k].records;
+      if (h == 1) {
+        l.bytes[k] = recs.size() * 2 * b;
+        l.width[k] = uint8_t(bitsFor(recs.size()));
+        continue;
+      }
+      const uint32_t w = l.width[sdagRegion(f, h - 1)];
+      uint64_t off = 0;
+      for (const Key& r : recs) {
+        l.offset[k].push_back(uint32_t(off));
+        off += sdagNodeBytes(r, 16, b, w);
+      }
+      l.bytes[k] = off;
+      l.width[k] = uint8_t(recs.empty() ? 0 : bitsFor(uint64_t(l.offset[k].back()) + 1));
+    }
+  }
+  return l;
+}
+
+uint64_t sdagRootBytes(const DagRoot& r, const SdagLayout& l) {
+  if (r.level <= 1 || r.level % 2 == 0) return r.level <= 1 ? 1 : 0;  // even roots live in their region
+  Key k{};
+  for (uint32_t c = 0; c < 4; ++c) k[c] = r.children[c];
+  return sdagNodeBytes(k, 4, bitsPerState(r.format), l.width[sdagRegion(r.format, (r.level - 1) / 2)]);
+}
+
+uint64_t sdagRecordBytes(uint32_t region, uint32_t id, const DagTables& tables, const SdagLayout& l) {
+  const uint32_t h = region % 6 + 1;
+  const Format f = region < 6 ? Format::TwoState : Format::FourState;
+  if (h == 1) return 2 * bitsPerState(f);
+  return sdagNodeBytes(tables.t[region].records[id], 16, bitsPerState(f), l.width[region - 1]);
+}
+
+void putLeaf(BitWriter& out, uint32_t packed, uint32_t b) {
+  for (uint32_t s = 0; s < 16; ++s) out.put((packed >> (2 * s)) & 3u, b);
+}
+
+// Mask, uniform states, references (ref(id) of each node child), byte-padded.
+template <class Ref>
+void putSdagNode(BitWriter& out, const Key& k, uint32_t slots, uint32_t b, uint32_t w, Ref&& ref) {
+  uint32_t m = 0;
+  for (uint32_t s = 0; s < slots; ++s)
+    if (k[s] >= kNodeCode) m |= 1u << s;
+  out.put(m, slots);
+  for (uint32_t s = 0; s < slots; ++s)
+    if (k[s] < kNodeCode) out.put(k[s], b);
+  for (uint32_t s = 0; s < slots; ++s)
+    if (k[s] >= kNodeCode) out.put(ref(k[s] - kNodeCode), w);
+  out.padToByte();
+}
+
+struct DagMapOut {
+  MapKind kind = MapKind::Flat;
+  std::vector<uint8_t> blob;  // non-DAG kinds
+};
+
+// Emits an sdag data buffer: directory, regions, then the other area (odd and level-0/1 roots, blobs of the
+// non-DAG maps) in map order. offsets[m] = the map's descriptor offset.
+std::vector<uint8_t> emitSdag(const DagTables& tables, const std::vector<DagRoot>& roots,
+                              const std::vector<DagMapOut>& kinds, std::vector<uint32_t>& offsets,
+                              SdagDirectory& dir) {
+  const SdagLayout l = sdagLayout(tables);
+  BitWriter out;
+  uint64_t base = kSdagDirectoryBytes;
+  for (uint32_t k = 0; k < kSdagRegions; ++k) {
+    dir.base[k] = uint32_t(base);
+    dir.width[k] = l.width[k];
+    base += l.bytes[k];
+  }
+  dir.base[kSdagRegions] = uint32_t(base);
+  for (uint32_t k = 0; k <= kSdagRegions; ++k) out.put(dir.base[k], 32);
+  for (uint32_t k = 0; k < kSdagRegions; ++k) out.put(dir.width[k], 8);
+  for (Format f : {Format::TwoState, Format::FourState}) {
+    const uint32_t b = bitsPerState(f);
+    for (uint32_t h = 1; h <= 6; ++h) {
+      const uint32_t k = sdagRegion(f, h);
+      for (const Key& r : tables.t[k].records) {
+        if (h == 1) {
+          putLeaf(out, r[0], b);
+          continue;
+        }
+        const uint32_t below = sdagRegion(f, h - 1);
+        putSdagNode(out, r, 16, b, l.width[below],
+                    [&](uint32_t id) { return h == 2 ? uint64_t(id) : uint64_t(l.offset[below][id]); });
+      }
+    }
+  }
+  offsets.assign(roots.size(), 0);
+  for (size_t m = 0; m < roots.size(); ++m) {
+    const DagRoot& r = roots[m];
+    if (kinds[m].kind != MapKind::Sdag) {
+      offsets[m] = uint32_t(out.bits() / 8);
+      for (uint8_t byte : kinds[m].blob) out.put(byte, 8);
+      continue;
+    }
+    const uint32_t b = bitsPerState(r.format);
+    if (r.level <= 1) {
+      offsets[m] = uint32_t(out.bits() / 8);
+      out.put(r.byte, 8);
+    } else if (r.level % 2 == 0) {
+      const uint32_t h = r.level / 2, k = sdagRegion(r.format, h);
+      offsets[m] = dir.base[k] + (h == 1 ? r.id * 2 * b : l.offset[k][r.id]);
+    } else {
+      offsets[m] = uint32_t(out.bits() / 8);
+      const uint32_t h = (r.level - 1) / 2, below = sdagRegion(r.format, h);
+      Key k{};
+      for (uint32_t c = 0; c < 4; ++c) k[c] = r.children[c];
+      putSdagNode(out, k, 4, b, l.width[below],
+                  [&](uint32_t id) { return h == 1 ? uint64_t(id) : uint64_t(l.offset[below][id]); });
+    }
+  }
+  return out.bytes();
+}
+
+// csm: the uniform non-transparent records every record (and root) refers to, then absolute offsets bottom-up.
+std::vector<uint8_t> emitCsm(DagTables& tables, const std::vector<DagRoot>& roots, std::vector<uint32_t>& offsets) {
+  for (const DagRoot& r : roots)
+    if (r.level >= 3 && r.level % 2 == 1)
+      for (uint32_t c : r.children)
+        if (c != 0 && c < kNodeCode) tables.intern(sdagRegion(r.format, (r.level - 1) / 2), uniformKey((r.level - 1) / 2, c));
+  for (Format f : {Format::TwoState, Format::FourState})
+    for (uint32_t h = 6; h >= 2; --h) {
+      const uint32_t k = sdagRegion(f, h);
+      for (size_t i = 0; i < tables.t[k].records.size(); ++i)
+        for (uint32_t s = 0; s < 16; ++s) {
+          const uint32_t c = tables.t[k].records[i][s];
+          if (c != 0 && c < kNodeCode) tables.intern(k - 1, uniformKey(h - 1, c));
+        }
+    }
+  std::array<std::vector<uint32_t>, kSdagRegions> off;
+  uint64_t pos = 0;
+  for (uint32_t k = 0; k < kSdagRegions; ++k) {
+    const uint32_t h = k % 6 + 1, b = k < 6 ? 1 : 2;
+    for (const Key& r : tables.t[k].records) {
+      off[k].push_back(uint32_t(pos));
+      pos += h == 1 ? 2 * b : 2 + 4 * uint64_t(16 - std::count(r.begin(), r.end(), 0u));
+    }
+  }
+  BitWriter out;
+  auto putNode = [&](const Key& r, uint32_t slots, uint32_t below, uint32_t childHeight) {
+    uint32_t m = 0;
+    for (uint32_t s = 0; s < slots; ++s)
+      if (r[s] != 0) m |= 1u << s;
+    out.put(m, 16);
+    for (uint32_t s = 0; s < slots; ++s) {
+      if (r[s] == 0) continue;
+      const uint32_t id = r[s] >= kNodeCode ? r[s] - kNodeCode : tables.find(below, uniformKey(childHeight, r[s]));
+      out.put(off[below][id], 32);
+    }
+  };
+  for (uint32_t k = 0; k < kSdagRegions; ++k) {
+    const uint32_t h = k % 6 + 1, b = k < 6 ? 1 : 2;
+    for (const Key& r : tables.t[k].records) {
+      if (h == 1)
+        putLeaf(out, r[0], b);
+      else
+        putNode(r, 16, k - 1, h - 1);
+    }
+  }
+  offsets.assign(roots.size(), 0);
+  for (size_t m = 0; m < roots.size(); ++m) {
+    const DagRoot& r = roots[m];
+    if (r.level % 2 == 0 && r.level >= 2) {
+      offsets[m] = off[sdagRegion(r.format, r.level / 2)][r.id];
+      continue;
+    }
+    offsets[m] = uint32_t(out.bits() / 8);
+    if (r.level <= 1) {
+      out.put(r.byte, 8);
+    } else {
+      Key k{};
+      for (uint32_t c = 0; c < 4; ++c) k[c] = r.children[c];
+      const uint32_t h = (r.level - 1) / 2;
+      putNode(k, 4, sdagRegion(r.format, h), h);
+    }
+  }
+  return out.bytes();
+}
+
+// ---- decoding (trusted) ----
+
+void sdagFill(const uint8_t* data, const SdagDirectory& dir, const uint8_t* p, Format f, uint32_t h,
+              uint32_t slots, uint64_t start, Micromap& out) {
+  const uint32_t b = bitsPerState(f);
+  if (h == 0) {  // a leaf's states (slots = 16) or a level-0/1 root byte
+    for (uint32_t s = 0; s < slots; ++s) out.set(uint32_t(start + s), getValue(p, 0, f, s));
+    return;
+  }
+  const uint32_t mbits = slots, m = slots == 16 ? load16(p) : p[0] & 15u;
+  const uint32_t n = popcount64(m), w = dir.width[sdagRegion(f, h)];
+  const uint64_t span = uint64_t(1) << (4 * h);
+  uint32_t ui = 0, ni = 0;
+  for (uint32_t s = 0; s < slots; ++s) {
+    if ((m >> s) & 1u) {
+      const uint32_t ref = getBits(p, mbits + b * (slots - n) + w * ni++, w);
+      const uint8_t* c = sdagChild(data, dir, f, h, ref);
+      if (h == 1)
+        sdagFill(data, dir, c, f, 0, 16, start + s * span, out);
+      else
+        sdagFill(data, dir, c, f, h - 1, 16, start + s * span, out);
+    } else {
+      fillRange(out, start + s * span, span, getValue(p, mbits, f, ui++));
+    }
+  }
+}
+
+// h = height of the children of the record at p (0: p is a leaf / root byte).
+void csmFill(const uint8_t* data, const uint8_t* p, Format f, uint32_t h, uint32_t slots, uint64_t start,
+             Micromap& out) {
+  if (h == 0) {
+    for (uint32_t s = 0; s < slots; ++s) out.set(uint32_t(start + s), getValue(p, 0, f, s));
+    return;
+  }
+  const uint32_t m = load16(p);
+  const uint64_t span = uint64_t(1) << (4 * h);
+  uint32_t ni = 0;
+  for (uint32_t s = 0; s < slots; ++s) {
+    if ((m >> s) & 1u)
+      csmFill(data, data + load32(p + 2 + 4 * ni++), f, h - 1, 16, start + s * span, out);
+    else
+      fillRange(out, start + s * span, span, State::Transparent);
+  }
+}
+
+// ---- validation (untrusted; every record checked once per (format, height), work and memory O(bytes)) ----
+
+struct SdagChecker {
+  const uint8_t* data;
+  uint64_t dataBytes;
+  const SdagDirectory& dir;
+  std::array<std::vector<bool>, kSdagRegions> seen{};
+
+  uint64_t regionBytes(uint32_t k) const { return uint64_t(dir.base[k + 1]) - dir.base[k]; }
+  bool child(Format f, uint32_t h, uint64_t ref) {
+    const uint32_t k = sdagRegion(f, h);
+    if (h == 1) return ref < regionBytes(k) / (2 * bitsPerState(f));
+    return node(f, h, ref);
+  }
+  // A record of `slots` children of height h at p with `avail` bytes.
+  bool record(const uint8_t* p, uint64_t avail, Format f, uint32_t h, uint32_t slots) {
+    const uint32_t b = bitsPerState(f);
+    if (avail < (slots == 16 ? 2u : 1u)) return false;
+    const uint32_t m = slots == 16 ? load16(p) : p[0] & 15u, n = popcount64(m);
+    if (h == 0 && m != 0) return false;
+    const uint32_t w = h == 0 ? 0 : dir.width[sdagRegion(f, h)];
+    if ((slots + b * (slots - n) + uint64_t(w) * n + 7) / 8 > avail) return false;
+    for (uint32_t i = 0; i < n; ++i)
+      if (!child(f, h, getBits(p, slots + b * (slots - n) + w * i, w))) return false;
+    return true;
+  }
+  bool node(Format f, uint32_t h, uint64_t off) {
+    const uint32_t k = sdagRegion(f, h);
+    const uint64_t size = regionBytes(k);
+    if (off >= size) return false;
+    if (seen[k].empty()) seen[k].resize(size, false);
+    if (seen[k][off]) return true;
+    if (!record(data + dir.base[k] + off, size - off, f, h - 1, 16)) return false;
+    seen[k][off] = true;
+    return true;
+  }
+  Status root(uint32_t offset, uint32_t level, Format f) {
+    if (offset >= dataBytes) return corrupt("sdag root past the data buffer");
+    if (level <= 1) return Ok{};
+    if (level % 2 == 0) {
+      const uint32_t h = level / 2, k = sdagRegion(f, h);
+      if (offset < dir.base[k] || offset >= dir.base[k + 1]) return corrupt("sdag root outside its region");
+      if (h == 1 ? !child(f, 1, (offset - dir.base[k]) / (2 * bitsPerState(f))) ||
+                       (offset - dir.base[k]) % (2 * bitsPerState(f)) != 0
+                 : !node(f, h, offset - dir.base[k]))
+        return corrupt("sdag tree is malformed (record or reference out of range)");
+      return Ok{};
+    }
+    if (!record(data + offset, dataBytes - offset, f, (level - 1) / 2, 4))
+      return corrupt("sdag 4-way root is malformed");
+    return Ok{};
+  }
+};
+
+struct CsmChecker {
+  const uint8_t* data;
+  uint64_t dataBytes;
+  std::array<std::vector<bool>, kSdagRegions> seen{};
+
+  // A record of height h (1 = leaf) at absolute offset off.
+  bool node(Format f, uint32_t h, uint64_t off) {
+    if (off >= dataBytes) return false;
+    if (h == 1) return dataBytes - off >= 2 * bitsPerState(f);
+    const uint32_t k = sdagRegion(f, h);
+    if (seen[k].empty()) seen[k].resize(dataBytes, false);
+    if (seen[k][off]) return true;
+    if (!children(f, h - 1, off, 16)) return false;
+    seen[k][off] = true;
+    return true;
+  }
+  bool children(Format f, uint32_t h, uint64_t off, uint32_t slots) {
+    if (dataBytes - off < 2) return false;
+    const uint32_t m = load16(data + off);
+    if (m >> slots) return false;
+    const uint32_t n = popcount64(m);
+    if (2 + 4 * uint64_t(n) > dataBytes - off) return false;
+    for (uint32_t i = 0; i < n; ++i)
+      if (!node(f, h, load32(data + off + 2 + 4 * i))) return false;
+    return true;
+  }
+  Status root(uint32_t offset, uint32_t level, Format f) {
+    if (offset >= dataBytes) return corrupt("csm root past the data buffer");
+    if (level <= 1) return Ok{};
+    const bool ok = level % 2 == 0 ? node(f, level / 2, offset) : children(f, (level - 1) / 2, offset, 4);
+    if (!ok) return corrupt("csm tree is malformed (record or pointer out of range)");
+    return Ok{};
+  }
+};
+
+}  // namespace
+
+Micromap decodeDagMap(const uint8_t* data, const SdagDirectory* dir, uint32_t offset, MapKind kind,
+                      uint32_t level, Format f) {
+  Micromap out(level, f);
+  const uint8_t* p = data + offset;
+  if (level <= 1) {
+    for (uint32_t i = 0; i < out.size(); ++i) out.set(i, getValue(p, 0, f, i));
+    return out;
+  }
+  const uint32_t h = level / 2;  // even: the root's height; odd: its children's height
+  if (kind == MapKind::Sdag) {
+    if (level % 2 == 0)
+      sdagFill(data, *dir, p, f, h - 1, 16, 0, out);
+    else
+      sdagFill(data, *dir, p, f, h, 4, 0, out);
+  } else {
+    if (level % 2 == 0)
+      csmFill(data, p, f, h - 1, 16, 0, out);
+    else
+      csmFill(data, p, f, h, 4, 0, out);
+  }
+  return out;
 }
 
 }  // namespace encode
@@ -441,6 +926,86 @@ constexpr uint8_t kVersion = 1;
 
 }  // namespace
 
+namespace {
+
+// Maps kept flat / dfs / rank, one blob each, in descriptor order (the per-map encodings and plain hybrid).
+std::vector<encode::DagMapOut> blobKinds(const std::vector<Micromap>& maps, Encoding encoding) {
+  std::vector<encode::DagMapOut> out(maps.size());
+  for (size_t i = 0; i < maps.size(); ++i) {
+    const Micromap& m = maps[i];
+    encode::DagMapOut& o = out[i];
+    switch (encoding) {
+      case Encoding::Dfs:
+      case Encoding::DfsFast:
+        o.kind = MapKind::Dfs;
+        o.blob = encode::encodeMap(m, o.kind);
+        break;
+      case Encoding::Rank:
+        o.kind = MapKind::Rank;
+        o.blob = encode::encodeMap(m, o.kind);
+        break;
+      case Encoding::Hybrid:
+        // Smallest wins; ties go to the faster lookup (flat, then rank, then dfs).
+        o.blob = encode::encodeMap(m, MapKind::Flat);
+        for (MapKind k : {MapKind::Rank, MapKind::Dfs}) {
+          std::vector<uint8_t> b = encode::encodeMap(m, k);
+          if (b.size() < o.blob.size()) {
+            o.blob = std::move(b);
+            o.kind = k;
+          }
+        }
+        break;
+      default:
+        o.blob = encode::encodeMap(m, MapKind::Flat);
+        break;
+    }
+  }
+  return out;
+}
+
+struct SdagBuild {
+  std::vector<uint8_t> data;
+  std::vector<uint32_t> offsets;
+  std::vector<encode::DagMapOut> kinds;
+  encode::SdagDirectory dir;
+  bool directory = true;
+};
+
+// sdag with per-map alternatives: pass 1 puts every map in the DAG and charges each the bytes of the records
+// it adds first (with pass 1's widths); a map keeps its alternative blob when that is smaller (ties: a flat
+// alternative wins, a dfs / rank one loses), and pass 2 builds the DAG of the others.
+SdagBuild buildSdag(const std::vector<Micromap>& maps, std::vector<encode::DagMapOut> choice) {
+  {
+    encode::DagTables tables;
+    std::vector<std::vector<std::pair<uint32_t, uint32_t>>> created(maps.size());
+    std::vector<encode::DagRoot> roots;
+    for (size_t i = 0; i < maps.size(); ++i) {
+      tables.created = &created[i];
+      roots.push_back(encode::internMap(maps[i], tables));
+    }
+    const encode::SdagLayout l = encode::sdagLayout(tables);
+    for (size_t i = 0; i < maps.size(); ++i) {
+      uint64_t own = encode::sdagRootBytes(roots[i], l);
+      for (const auto& [k, id] : created[i]) own += encode::sdagRecordBytes(k, id, tables, l);
+      if (own < choice[i].blob.size() || (own == choice[i].blob.size() && choice[i].kind != MapKind::Flat)) {
+        choice[i].kind = MapKind::Sdag;
+        choice[i].blob.clear();
+      }
+    }
+  }
+  encode::DagTables tables;
+  std::vector<encode::DagRoot> roots;
+  for (size_t i = 0; i < maps.size(); ++i)
+    roots.push_back(choice[i].kind == MapKind::Sdag ? encode::internMap(maps[i], tables)
+                                                     : encode::DagRoot{maps[i].level(), maps[i].format()});
+  SdagBuild b;
+  b.data = encode::emitSdag(tables, roots, choice, b.offsets, b.dir);
+  b.kinds = std::move(choice);
+  return b;
+}
+
+}  // namespace
+
 Result<EncodedArray> EncodedArray::build(const OmmArray& array, Encoding encoding) {
   EncodedArray out;
   out.encoding_ = encoding;
@@ -448,17 +1013,20 @@ Result<EncodedArray> EncodedArray::build(const OmmArray& array, Encoding encodin
   const uint64_t mapCount = array.descriptors.size();
   if (mapCount > uint64_t(INT32_MAX))
     return makeError(ErrorCode::LimitExceeded, "too many micromaps in the array");
+  if (uint8_t(encoding) >= kEncodingCount) return makeError(ErrorCode::InvalidArgument, "unknown encoding");
   for (int32_t i : array.indices)
     if (!(isSpecialIndex(i) || (i >= 0 && uint64_t(i) < mapCount)))
       return makeError(ErrorCode::InvalidArgument,
                        "OMM array index " + std::to_string(i) + " is out of range");
   out.indices_ = array.indices;
-  std::vector<uint8_t>& data = out.data_;
-  bool anyTree = encoding != Encoding::Flat && encoding != Encoding::Hybrid;
   // Descriptors sharing one map (same offset, level and format) share its encoded map: memory and work stay
-  // bounded by the distinct maps, not descriptors × map size (docs/hardening.md). Arrays made by
-  // OmmArrayBuilder have no such sharing, so their encoding is unchanged.
-  std::map<std::tuple<uint32_t, uint16_t, uint16_t>, EncodedMapDesc> seen;
+  // bounded by the distinct maps, not descriptors × map size (docs/hardening.md). Arrays made by OmmArrayBuilder
+  // have no such sharing, so their encoding is unchanged.
+  std::vector<Micromap> maps;
+  std::vector<uint32_t> mapOfDescriptor;
+  mapOfDescriptor.reserve(mapCount);
+  std::map<std::tuple<uint32_t, uint16_t, uint16_t>, uint32_t> seen;
+  uint64_t flatTotal = 0;
   for (const TriangleDescriptor& d : array.descriptors) {
     if (!validDescriptor(d))
       return makeError(ErrorCode::InvalidArgument, "OMM array descriptor has a bad level or format");
@@ -470,46 +1038,73 @@ Result<EncodedArray> EncodedArray::build(const OmmArray& array, Encoding encodin
       out.maps_.push_back(it->second);
       continue;
     }
+    const auto [it, fresh] =
+        seen.emplace(std::make_tuple(d.dataOffset, d.subdivisionLevel, d.format), uint32_t(maps.size()));
+    mapOfDescriptor.push_back(it->second);
+    if (!fresh) continue;
     Micromap m(d.subdivisionLevel, f);
     std::memcpy(m.bytes().data(), array.data.data() + d.dataOffset, m.bytes().size());
-    MapKind kind = MapKind::Flat;
-    std::vector<uint8_t> blob;
-    switch (encoding) {
-      case Encoding::Flat:
-        blob = encode::encodeMap(m, MapKind::Flat);
-        break;
-      case Encoding::Dfs:
-      case Encoding::DfsFast:
-        kind = MapKind::Dfs;
-        blob = encode::encodeMap(m, kind);
-        break;
-      case Encoding::Rank:
-        kind = MapKind::Rank;
-        blob = encode::encodeMap(m, kind);
-        break;
-      case Encoding::Hybrid: {
-        // Smallest wins; ties go to the faster lookup (flat, then rank, then dfs).
-        blob = encode::encodeMap(m, MapKind::Flat);
-        for (MapKind k : {MapKind::Rank, MapKind::Dfs}) {
-          std::vector<uint8_t> b = encode::encodeMap(m, k);
-          if (b.size() < blob.size()) {
-            blob = std::move(b);
-            kind = k;
-          }
-        }
-        if (kind != MapKind::Flat) anyTree = true;
-        break;
-      }
+    flatTotal += m.bytes().size();
+    maps.push_back(std::move(m));
+  }
+  if (flatTotal > UINT32_MAX / 2)
+    return makeError(ErrorCode::LimitExceeded, "encoded micromap data exceeds 2 GiB");
+
+  std::vector<encode::DagMapOut> kinds;
+  std::vector<uint32_t> offsets;
+  std::vector<uint8_t> data;
+  if (encoding == Encoding::Csm) {
+    encode::DagTables tables;
+    std::vector<encode::DagRoot> roots;
+    for (const Micromap& m : maps) roots.push_back(encode::internMap(m, tables));
+    data = encode::emitCsm(tables, roots, offsets);
+    kinds.assign(maps.size(), encode::DagMapOut{MapKind::Csm, {}});
+  } else if (encoding == Encoding::Sdag || encoding == Encoding::Hybrid) {
+    SdagBuild best = buildSdag(maps, blobKinds(maps, Encoding::Flat));
+    if (encoding == Encoding::Sdag && best.data.size() > encode::kSdagDirectoryBytes + flatTotal) {
+      // Cannot happen with the per-map choice unless sharing shifted; the bound holds regardless.
+      std::vector<encode::DagRoot> roots;
+      for (const Micromap& m : maps) roots.push_back(encode::DagRoot{m.level(), m.format()});
+      best.kinds = blobKinds(maps, Encoding::Flat);
+      best.dir = {};
+      best.data = encode::emitSdag(encode::DagTables{}, roots, best.kinds, best.offsets, best.dir);
     }
-    if (data.size() + blob.size() > UINT32_MAX)
-      return makeError(ErrorCode::LimitExceeded, "encoded micromap data exceeds 4 GiB");
-    out.maps_.push_back(
-        EncodedMapDesc{uint32_t(data.size()), uint8_t(d.subdivisionLevel), uint8_t(d.format), kind, 0});
-    seen.emplace(key, out.maps_.back());
-    data.insert(data.end(), blob.begin(), blob.end());
+    if (encoding == Encoding::Hybrid) {
+      // The smallest of: sdag (maps in the DAG or flat), the DAG with dfs / rank blobs as further candidates,
+      // and the DAG-free hybrid (no directory; ties go to it, then to plain sdag).
+      std::vector<encode::DagMapOut> plain = blobKinds(maps, Encoding::Hybrid);
+      SdagBuild mixed = buildSdag(maps, plain);
+      if (mixed.data.size() < best.data.size()) best = std::move(mixed);
+      uint64_t plainBytes = 0;
+      for (const auto& o : plain) plainBytes += o.blob.size();
+      if (plainBytes <= best.data.size()) best = SdagBuild{{}, {}, std::move(plain), {}, false};
+    }
+    data = std::move(best.data);
+    offsets = std::move(best.offsets);
+    kinds = std::move(best.kinds);
+    out.hasDirectory_ = best.directory;
+    out.dir_ = best.dir;
+  } else {
+    kinds = blobKinds(maps, encoding);
+  }
+  if (!out.hasDirectory_ && encoding != Encoding::Csm) {
+    offsets.clear();
+    for (const auto& o : kinds) {
+      offsets.push_back(uint32_t(data.size()));
+      data.insert(data.end(), o.blob.begin(), o.blob.end());
+    }
+  }
+  if (data.size() > UINT32_MAX - encode::kTailPadding)
+    return makeError(ErrorCode::LimitExceeded, "encoded micromap data exceeds 4 GiB");
+  bool anyTree = encoding != Encoding::Flat && encoding != Encoding::Hybrid;
+  for (uint32_t i : mapOfDescriptor) {
+    out.maps_.push_back(EncodedMapDesc{offsets[i], uint8_t(maps[i].level()), uint8_t(maps[i].format()),
+                                       kinds[i].kind, 0});
+    anyTree |= kinds[i].kind != MapKind::Flat;
   }
   out.dataBytes_ = data.size();
-  data.resize(data.size() + (anyTree ? encode::kTailPadding : 0), 0);
+  out.data_ = std::move(data);
+  out.data_.resize(out.data_.size() + (anyTree ? encode::kTailPadding : 0), 0);
   return out;
 }
 
@@ -517,7 +1112,10 @@ OmmArray EncodedArray::decode() const {
   OmmArray a;
   a.indices = indices_;
   for (const EncodedMapDesc& d : maps_) {
-    const Micromap m = encode::decodeMap(data_.data() + d.offset, d.kind, d.level, Format(d.format));
+    const Micromap m =
+        d.kind == MapKind::Csm || d.kind == MapKind::Sdag
+            ? encode::decodeDagMap(data_.data(), &dir_, d.offset, d.kind, d.level, Format(d.format))
+            : encode::decodeMap(data_.data() + d.offset, d.kind, d.level, Format(d.format));
     a.descriptors.push_back(TriangleDescriptor{uint32_t(a.data.size()), d.level, d.format});
     a.data.insert(a.data.end(), m.bytes().begin(), m.bytes().end());
   }
@@ -532,7 +1130,7 @@ std::vector<uint8_t> EncodedArray::serialize() const {
   out.push_back(kVersion);
   out.push_back(uint8_t(encoding_));
   out.push_back(uint8_t(indexType_));
-  out.push_back(0);
+  out.push_back(hasDirectory_ ? 1 : 0);
   putU32(out, uint32_t(indices_.size()));
   putU32(out, uint32_t(maps_.size()));
   putU32(out, uint32_t(dataBytes_));
@@ -564,12 +1162,15 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
   if (p[4] != kVersion)
     return makeError(ErrorCode::UnsupportedFormat,
                      prefix + "encoded array version " + std::to_string(p[4]) + " is not supported");
-  if (p[5] > uint8_t(Encoding::Hybrid)) return bad("unknown encoding id " + std::to_string(p[5]));
+  if (p[5] >= kEncodingCount) return bad("unknown encoding id " + std::to_string(p[5]));
   if (p[6] != 2 && p[6] != 4) return bad("index size must be 2 or 4 bytes");
-  if (p[7] != 0) return bad("reserved header byte is not zero");
+  const Encoding enc = Encoding(p[5]);
+  if (p[7] > 1 || (p[7] == 1) != (enc == Encoding::Sdag || (enc == Encoding::Hybrid && p[7] == 1)))
+    return bad("bad flags byte (the directory flag is set for sdag, optional for hybrid)");
   EncodedArray out;
-  out.encoding_ = Encoding(p[5]);
+  out.encoding_ = enc;
   out.indexType_ = IndexType(p[6]);
+  out.hasDirectory_ = p[7] == 1;
   const uint64_t triangles = getU32(p + 8), mapCount = getU32(p + 12), dataBytes = getU32(p + 16);
   const uint64_t fixed =
       encode::kArrayHeaderBytes + triangles * p[6] + mapCount * encode::kDescriptorBytes + dataBytes;
@@ -577,6 +1178,8 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
   const uint64_t padding = bytes.size() - fixed;
   if (padding != 0 && padding != encode::kTailPadding) return bad("encoded array has trailing bytes");
   if (mapCount > uint64_t(INT32_MAX)) return bad("too many micromaps");
+  const bool dagArray = enc == Encoding::Csm || out.hasDirectory_;
+  if (dagArray && padding != encode::kTailPadding) return bad("encoded array tail padding is wrong");
   const uint8_t* q = p + encode::kArrayHeaderBytes;
   out.indices_.resize(triangles);
   for (uint64_t t = 0; t < triangles; ++t) {
@@ -594,6 +1197,18 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
     out.indices_[t] = v;
   }
   const uint8_t* data = q + mapCount * encode::kDescriptorBytes;
+  if (out.hasDirectory_) {
+    if (dataBytes < encode::kSdagDirectoryBytes) return bad("sdag directory is truncated");
+    for (uint32_t k = 0; k <= encode::kSdagRegions; ++k) out.dir_.base[k] = getU32(data + 4 * k);
+    for (uint32_t k = 0; k < encode::kSdagRegions; ++k) out.dir_.width[k] = data[52 + k];
+    if (out.dir_.base[0] != encode::kSdagDirectoryBytes || out.dir_.base[encode::kSdagRegions] > dataBytes)
+      return bad("sdag directory regions exceed the data buffer");
+    for (uint32_t k = 0; k < encode::kSdagRegions; ++k)
+      if (out.dir_.base[k + 1] < out.dir_.base[k] || out.dir_.width[k] > 32)
+        return bad("sdag directory is inconsistent (regions out of order or reference width above 32)");
+  }
+  encode::SdagChecker sdag{data, dataBytes, out.dir_};
+  encode::CsmChecker csm{data, dataBytes};
   bool anyTree = false;
   out.maps_.resize(mapCount);
   // A map shared by several descriptors is validated once (work bounded by the distinct maps).
@@ -604,24 +1219,45 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
     if (d.level > kMaxLevel)
       return bad(which + "subdivision level " + std::to_string(d.level) + " exceeds 12");
     if (!isValidFormat(d.format)) return bad(which + "format " + std::to_string(d.format) + " is not 1 or 2");
-    if (d.reserved != 0 || q[6] > uint8_t(MapKind::Rank)) return bad(which + "bad kind or reserved byte");
-    const MapKind want = out.encoding_ == Encoding::Flat   ? MapKind::Flat
-                         : out.encoding_ == Encoding::Rank ? MapKind::Rank
-                         : out.encoding_ == Encoding::Dfs || out.encoding_ == Encoding::DfsFast ? MapKind::Dfs
-                                                                                                : d.kind;
-    if (d.kind != want)
-      return bad(which + "kind " + mapKindName(d.kind) + " does not match the array's encoding");
+    if (d.reserved != 0 || q[6] > uint8_t(MapKind::Sdag)) return bad(which + "bad kind or reserved byte");
+    bool kindOk;
+    switch (enc) {
+      case Encoding::Flat:
+        kindOk = d.kind == MapKind::Flat;
+        break;
+      case Encoding::Dfs:
+      case Encoding::DfsFast:
+        kindOk = d.kind == MapKind::Dfs;
+        break;
+      case Encoding::Rank:
+        kindOk = d.kind == MapKind::Rank;
+        break;
+      case Encoding::Csm:
+        kindOk = d.kind == MapKind::Csm;
+        break;
+      case Encoding::Sdag:
+        kindOk = d.kind == MapKind::Sdag || d.kind == MapKind::Flat;
+        break;
+      default:
+        kindOk = d.kind != MapKind::Csm && (d.kind != MapKind::Sdag || out.hasDirectory_);
+        break;
+    }
+    if (!kindOk) return bad(which + "kind " + mapKindName(d.kind) + " does not match the array's encoding");
     if (d.offset > dataBytes) return bad(which + "offset past the data buffer");
-    if (validated.emplace(std::make_tuple(d.offset, d.level, d.format, uint8_t(d.kind)), true).second) {
-      auto size = encode::validateMap(data + d.offset, dataBytes - d.offset, d.kind, d.level, Format(d.format));
+    const Format f = Format(d.format);
+    if (d.kind == MapKind::Sdag) {
+      if (Status st = sdag.root(d.offset, d.level, f); !st) return bad(which + st.error().message);
+    } else if (d.kind == MapKind::Csm) {
+      if (Status st = csm.root(d.offset, d.level, f); !st) return bad(which + st.error().message);
+    } else if (validated.emplace(std::make_tuple(d.offset, d.level, d.format, uint8_t(d.kind)), true).second) {
+      auto size = encode::validateMap(data + d.offset, dataBytes - d.offset, d.kind, d.level, f);
       if (!size) return bad(which + size.error().message);
     }
     anyTree |= d.kind != MapKind::Flat;
     out.maps_[m] = d;
   }
   const uint64_t wantPadding =
-      anyTree || (out.encoding_ != Encoding::Flat && out.encoding_ != Encoding::Hybrid) ? encode::kTailPadding
-                                                                                        : 0;
+      anyTree || (enc != Encoding::Flat && enc != Encoding::Hybrid) ? encode::kTailPadding : 0;
   if (padding != wantPadding) return bad("encoded array tail padding is wrong");
   out.data_.assign(data, data + dataBytes + padding);
   for (uint64_t i = dataBytes; i < out.data_.size(); ++i)

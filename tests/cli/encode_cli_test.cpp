@@ -200,5 +200,37 @@ TEST(CliEncode, BakeStoresEncodings) {
   EXPECT_NE(r.err.find("unknown encoding 'zip'"), std::string::npos) << r.err;
 }
 
+// dfs-fast is served by the one dfs section (no second copy); csm and sdag are stored and answer queries.
+TEST(CliEncode, DfsFastSharesTheDfsSectionAndDagsAnswer) {
+  TempDir dir;
+  const std::string out = dir / "oak.somm";
+  RunResult r = runSomm(dir, "bake " + shellQuote(std::string(SOMM_DATA_DIR) + "/oak-tree/oaktree.gltf") + " -o " +
+                                 shellQuote(out) + " --level 5 --format 4 --encoding dfs-fast,csm,sdag");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  auto f = readSommFile(out);
+  ASSERT_TRUE(f.ok());
+  ASSERT_EQ(f->micromaps.arrays.size(), 1u);  // one scene-wide array: the DAGs share across the scene
+  ASSERT_EQ(f->encodings[0].size(), 3u);
+  EXPECT_EQ(f->encodings[0][0].id, sectionId("dfs "));
+  EXPECT_EQ(f->encodings[0][1].id, sectionId("csm "));
+  EXPECT_EQ(f->encodings[0][2].id, sectionId("sdag"));
+  EXPECT_EQ(f->encodings[0][2].bytes, EncodedArray::build(f->micromaps.arrays[0], Encoding::Sdag).value().serialize());
+  testing::writeFile(dir / "uv.txt", "0.1 0.2\n0.3 0.3\n0.7 0.1\n0.05 0.9\n0.4 0.41\n");
+  const RunResult flat = runSomm(dir, "query " + shellQuote(out) + " -g 0 -t 1", dir / "uv.txt");
+  ASSERT_EQ(flat.exitCode, 0) << flat.err;
+  for (const char* e : {"dfs", "dfs-fast", "csm", "sdag"}) {
+    const RunResult q = runSomm(dir, "query " + shellQuote(out) + " -g 0 -t 1 --encoding " + e, dir / "uv.txt");
+    ASSERT_EQ(q.exitCode, 0) << e << ": " << q.err;
+    EXPECT_EQ(q.out, flat.out) << e;
+  }
+  r = runSomm(dir, "info " + shellQuote(out) + " --json");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  const nlohmann::json& s = j["total"]["encoding_sizes"];
+  EXPECT_EQ(s["dfs-fast"]["bytes"], s["dfs"]["bytes"]);
+  EXPECT_TRUE(s.contains("csm"));
+  EXPECT_TRUE(s.contains("sdag"));
+}
+
 }  // namespace
 }  // namespace somm

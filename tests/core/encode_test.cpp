@@ -143,6 +143,9 @@ uint64_t formulaBytes(MapKind k, const Micromap& m) {
       return encode::dfsMapBytes(m.level(), m.format(), s);
     case MapKind::Rank:
       return encode::rankMapBytes(m.level(), m.format(), s);
+    case MapKind::Csm:
+    case MapKind::Sdag:
+      break;
   }
   return 0;
 }
@@ -206,8 +209,13 @@ struct EncName {
   }
 };
 
-using AllEncodings = ::testing::Types<Enc<Encoding::Flat>, Enc<Encoding::Dfs>, Enc<Encoding::DfsFast>,
-                                      Enc<Encoding::Rank>, Enc<Encoding::Hybrid>>;
+using AllEncodings =
+    ::testing::Types<Enc<Encoding::Flat>, Enc<Encoding::Dfs>, Enc<Encoding::DfsFast>, Enc<Encoding::Rank>,
+                     Enc<Encoding::Hybrid>, Enc<Encoding::Csm>, Enc<Encoding::Sdag>>;
+
+bool isDag(Encoding e) {
+  return e == Encoding::Csm || e == Encoding::Sdag;
+}
 TYPED_TEST_SUITE(EncodeTest, AllEncodings, EncName);
 
 TYPED_TEST(EncodeTest, EveryIndexLevels0To8) {
@@ -308,6 +316,21 @@ TYPED_TEST(EncodeTest, SizesEqualTheFormulas) {
   const OmmArray oracle = arrayOf(maps);
   const EncodedArray e = this->build(oracle);
   ASSERT_EQ(e.mapCount(), maps.size());
+  if (isDag(TestFixture::kE)) {  // one shared DAG: only the framing has a closed form (see DagSizes tests)
+    EXPECT_EQ(e.paddingBytes(), encode::kTailPadding);
+    EXPECT_EQ(e.byteSize(), 20u + 2u * oracle.indices.size() + 8u * maps.size() + e.dataBytes() + 8u);
+    EXPECT_EQ(e.serialize().size(), e.byteSize());
+    return;
+  }
+  if (TestFixture::kE == Encoding::Hybrid && e.hasDirectory()) {
+    // Hybrid took the DAG: smaller than the smallest per-map blobs (whose sizes the formulas give).
+    uint64_t plain = 0;
+    for (const Micromap& m : maps)
+      plain += std::min({formulaBytes(MapKind::Flat, m), formulaBytes(MapKind::Dfs, m), formulaBytes(MapKind::Rank, m)});
+    EXPECT_LT(e.dataBytes(), plain);
+    EXPECT_EQ(e.byteSize(), 20u + 2u * oracle.indices.size() + 8u * maps.size() + e.dataBytes() + 8u);
+    return;
+  }
   uint64_t total = 0;
   bool anyTree = false;
   for (size_t k = 0; k < maps.size(); ++k) {
@@ -347,9 +370,14 @@ TYPED_TEST(EncodeTest, NeverLargerThanFlatWhenHybrid) {
           EXPECT_LE(e.dataBytes(), flat.dataBytes());
           EXPECT_LE(e.byteSize(), flat.byteSize() + encode::kTailPadding);
         }
-        // Checkerboards are the degenerate case: no tree beats flat there.
-        if (p == Pattern::Checker && level >= 2 && TestFixture::kE != Encoding::Flat &&
-            TestFixture::kE != Encoding::Hybrid) {
+        if (TestFixture::kE == Encoding::Sdag) {  // flat + the directory + the tail padding at worst
+          EXPECT_LE(e.byteSize(), flat.byteSize() + encode::kSdagDirectoryBytes + encode::kTailPadding);
+        }
+        // Checkerboards are the degenerate case of a tree per map: no tree beats flat there. The DAG shares
+        // their repeated leaves; its degenerate case is noise (every leaf distinct).
+        if (p == (TestFixture::kE == Encoding::Csm ? Pattern::Random : Pattern::Checker) && level >= 3 &&
+            TestFixture::kE != Encoding::Flat && TestFixture::kE != Encoding::Hybrid &&
+            TestFixture::kE != Encoding::Sdag) {
           EXPECT_GT(e.dataBytes(), flat.dataBytes());
         }
       }
@@ -415,7 +443,7 @@ TYPED_TEST(EncodeTest, CorruptBytesRejected) {
   b[desc + 5] = 3;  // format 3
   expectReject(b, "format");
   b = good;
-  b[desc + 6] = 3;  // kind 3
+  b[desc + 6] = 5;  // kind 5
   expectReject(b, "kind");
   b = good;
   b[desc + 0] = 0xf0;  // offset past the data
@@ -473,11 +501,94 @@ TEST(EncodeMaps, RankDirectoryOnLargeMaps) {
   EXPECT_EQ(encode::treeShape(m).internalAboveLast, s.internalAboveLast);
 }
 
+// docs/encodings.md's worked example, byte for byte.
+TEST(EncodeDag, WorkedExampleLayouts) {
+  Micromap m(3, Format::TwoState);
+  for (uint32_t i = 0; i < 64; ++i)
+    m.set(i, (i >= 16 && i < 32) || (i >= 32 && (i & 15) < 8) ? State::Opaque : State::Transparent);
+  const OmmArray a = arrayOf({m});
+  const EncodedArray csm = EncodedArray::build(a, Encoding::Csm).value();
+  const std::vector<uint8_t> csmData{0xff, 0x00, 0xff, 0xff, 0x0e, 0x00, 0x02, 0x00, 0x00,
+                                     0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00};
+  EXPECT_EQ(std::vector<uint8_t>(csm.data().begin(), csm.data().end()), csmData);
+  EXPECT_EQ(csm.maps()[0].offset, 4u);
+  EXPECT_EQ(csm.maps()[0].kind, MapKind::Csm);
+  const EncodedArray sdag = EncodedArray::build(a, Encoding::Sdag).value();
+  ASSERT_EQ(sdag.dataBytes(), 67u);
+  EXPECT_TRUE(sdag.hasDirectory());
+  EXPECT_EQ(sdag.directory().base[0], 64u);
+  for (uint32_t k = 1; k <= encode::kSdagRegions; ++k) EXPECT_EQ(sdag.directory().base[k], 66u);
+  for (uint32_t k = 0; k < encode::kSdagRegions; ++k) EXPECT_EQ(sdag.directory().width[k], 0u);
+  EXPECT_EQ(sdag.data()[0], 64u);
+  EXPECT_EQ(sdag.data()[4], 66u);
+  EXPECT_EQ(sdag.data()[64], 0xff);
+  EXPECT_EQ(sdag.data()[65], 0x00);
+  EXPECT_EQ(sdag.data()[66], 0x2c);
+  EXPECT_EQ(sdag.maps()[0].offset, 66u);
+  EXPECT_EQ(sdag.maps()[0].kind, MapKind::Sdag);
+  for (uint32_t i = 0; i < 64; ++i) {
+    EXPECT_EQ(csm.state(0, i), m.get(i)) << i;
+    EXPECT_EQ(sdag.state(0, i), m.get(i)) << i;
+  }
+}
+
+// Identical subtrees of different maps are stored once: a second map that differs from the first in one
+// leaf adds about a root-to-leaf path, not a second tree.
+TEST(EncodeDag, SubtreesSharedAcrossMaps) {
+  for (Format f : {Format::TwoState, Format::FourState}) {
+    const Micromap m1 = makeMap(Pattern::Leaf, 8, f, 1);
+    Micromap m2 = m1;
+    for (uint32_t i = 30000; i < 30016; ++i) m2.set(i, m2.get(i) == State::Opaque ? State::Transparent : State::Opaque);
+    Micromap m3(9, f);  // a level-9 map whose four quarters are m1: shares every subtree below its root
+    for (uint32_t q = 0; q < 4; ++q)
+      for (uint32_t i = 0; i < m1.size(); ++i) m3.set(q * m1.size() + i, m1.get(i));
+    for (Encoding e : {Encoding::Csm, Encoding::Sdag}) {
+      const uint64_t one = EncodedArray::build(arrayOf({m1}), e).value().dataBytes();
+      const EncodedArray all = EncodedArray::build(arrayOf({m1, m2, m3}), e).value();
+      EXPECT_LT(all.dataBytes(), one + one / 4) << encodingName(e) << " format " << int(f);
+      const OmmArray oracle = arrayOf({m1, m2, m3});
+      for (uint32_t t = 0; t < 3; ++t)
+        for (uint32_t i = 0; i < oracle.descriptors.size() * 0 + microTriangleCount(t == 2 ? 9 : 8); i += 7)
+          ASSERT_EQ(all.state(t, i), oracle.state(t, i)) << encodingName(e) << " " << t << " " << i;
+    }
+  }
+}
+
+// sdag beats csm and dfs on trees with structure (procedural leaves, levels 6..10), and csm's 32-bit
+// pointers cost more than sdag's bit-packed references.
+TEST(EncodeDag, SdagSmallerThanCsmAndDfs) {
+  for (uint32_t level : {6u, 8u, 10u}) {
+    std::vector<Micromap> maps;
+    for (uint32_t s = 0; s < 4; ++s) maps.push_back(cachedMap(s % 2 ? Pattern::Leaf : Pattern::Disc, level, Format::FourState, s));
+    const OmmArray a = arrayOf(maps);
+    const uint64_t sdag = EncodedArray::build(a, Encoding::Sdag).value().byteSize();
+    const uint64_t csm = EncodedArray::build(a, Encoding::Csm).value().byteSize();
+    const uint64_t dfs = EncodedArray::build(a, Encoding::Dfs).value().byteSize();
+    EXPECT_LT(sdag, csm) << level;
+    EXPECT_LT(sdag, dfs) << level;
+    EXPECT_LE(EncodedArray::build(a, Encoding::Hybrid).value().byteSize(), sdag) << level;
+  }
+}
+
+TEST(EncodeDag, DfsFastIsTheDfsBytes) {
+  const OmmArray a = arrayOf({makeMap(Pattern::Leaf, 6, Format::FourState, 1)});
+  EncodedArray dfs = EncodedArray::build(a, Encoding::Dfs).value();
+  const EncodedArray fast = EncodedArray::build(a, Encoding::DfsFast).value();
+  EXPECT_EQ(EncodedArray::storedEncoding(Encoding::DfsFast), Encoding::Dfs);
+  EXPECT_EQ(std::vector<uint8_t>(dfs.data().begin(), dfs.data().end()),
+            std::vector<uint8_t>(fast.data().begin(), fast.data().end()));
+  EXPECT_TRUE(dfs.setLookup(Encoding::DfsFast));
+  EXPECT_EQ(dfs.encoding(), Encoding::DfsFast);
+  EXPECT_TRUE(dfs == fast);
+  EXPECT_FALSE(dfs.setLookup(Encoding::Rank));
+  EXPECT_EQ(dfs.encoding(), Encoding::DfsFast);
+}
+
 TEST(EncodeNames, ParseLists) {
   EXPECT_EQ(parseEncodingList("rank").value(), std::vector<Encoding>{Encoding::Rank});
   EXPECT_EQ(parseEncodingList("dfs,dfs-fast,dfs").value(),
             (std::vector<Encoding>{Encoding::Dfs, Encoding::DfsFast}));
-  EXPECT_EQ(parseEncodingList("all").value().size(), 5u);
+  EXPECT_EQ(parseEncodingList("all").value().size(), 7u);
   EXPECT_FALSE(parseEncodingList("rank,,flat").ok());
   EXPECT_FALSE(parseEncodingList("zip").ok());
   for (Encoding e : kAllEncodings) EXPECT_EQ(parseEncodingName(encodingName(e)), e);

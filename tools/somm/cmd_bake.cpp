@@ -366,7 +366,7 @@ void setup(CLI::App& root) {
   somm::cli::addLimitOption(cmd, o->limits);
   cmd->add_option("--encoding,-e", o->encodings,
                   "also store these encodings of each array (docs/encodings.md): comma list of flat, dfs, "
-                  "dfs-fast, rank, hybrid, or all");
+                  "dfs-fast, rank, hybrid, csm, sdag, or all");
   cmd->add_option("--arrays", o->arrays,
                   "scene (default): one OMM array shared by all geometries, identical maps stored once; "
                   "geometry: one array per geometry")

@@ -3,6 +3,7 @@
 // level and format and prints the memory table of every encoding (bytes and ratio to flat), optionally as a
 // PNG plot of the ratio against the level.
 #include <stb/stb_image_write.h>
+#include <time.h>
 
 #include <algorithm>
 #include <array>
@@ -17,6 +18,7 @@
 #include "file_summary.h"
 #include "somm/bake.h"
 #include "somm/encode.h"
+#include "somm/omm_array.h"
 #include "somm/procedural.h"
 #include "somm/scene.h"
 #include "somm/somm_file.h"
@@ -26,22 +28,101 @@ namespace {
 using somm::Encoding;
 
 struct Options {
-  std::string scene;
+  std::vector<std::string> scenes;
+  std::string scene;  // the scenes' names, joined by ' + '
+
   std::string levels = "4,6,8,10,12";
   std::string formats = "2,4";
   bool json = false;
   std::string plot;
   uint32_t threads = 0;
   std::vector<std::string> limits;
+  uint32_t lookups = 20000;
+  float texelsPerMicroTri = 0;  // > 0: each level is a cap of adaptive levels
+  bool sdagStats = false;
 };
 
 struct Row {
   uint32_t level = 0;
   uint32_t states = 2;
   uint64_t triangles = 0, maps = 0;
-  std::array<uint64_t, 5> bytes{};  // by Encoding
+  std::array<uint64_t, somm::kEncodingCount> bytes{};  // by Encoding: the scene-wide array
+  std::array<double, somm::kEncodingCount> ns{};       // ns per random (u, v) lookup, 0 = not measured
+  uint64_t xz = 0;                                     // xz -9 of the flat array's bytes
   double ratio(Encoding e) const { return bytes[0] ? double(bytes[size_t(e)]) / double(bytes[0]) : 0.0; }
+  double ratioTo(Encoding e, uint64_t base) const { return base ? double(bytes[size_t(e)]) / double(base) : 0.0; }
 };
+
+// Thread CPU time in ns (the machine may be shared: wall time would measure the neighbours).
+double cpuNs() {
+  timespec t;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return double(t.tv_sec) * 1e9 + double(t.tv_nsec);
+}
+
+// Random hits on triangles that have a micromap: (triangle, u, v).
+struct Queries {
+  std::vector<uint32_t> tri;
+  std::vector<float> u, v;
+};
+Queries makeQueries(const somm::OmmArray& a, uint32_t n) {
+  Queries q;
+  std::vector<uint32_t> withMap;
+  for (uint32_t t = 0; t < a.indices.size(); ++t)
+    if (a.indices[t] >= 0) withMap.push_back(t);
+  if (withMap.empty()) return q;
+  uint64_t x = 0x9e3779b97f4a7c15ull;
+  auto next = [&] {
+    x ^= x << 13, x ^= x >> 7, x ^= x << 17;
+    return x;
+  };
+  for (uint32_t i = 0; i < n; ++i) {
+    float u = float(next() >> 40) / float(1 << 24), v = float(next() >> 40) / float(1 << 24);
+    if (u + v > 1.f) u = 1.f - u, v = 1.f - v;
+    q.tri.push_back(withMap[next() % withMap.size()]);
+    q.u.push_back(u);
+    q.v.push_back(v);
+  }
+  return q;
+}
+
+// Best of three passes; -1 when a lookup disagrees with the flat array.
+template <Encoding E>
+double lookupNs(const somm::EncodedArray& a, const somm::OmmArray& flat, const Queries& q) {
+  for (size_t i = 0; i < q.tri.size(); ++i)
+    if (a.stateUVAs<E>(q.tri[i], q.u[i], q.v[i]) != flat.stateUV(q.tri[i], q.u[i], q.v[i])) return -1;
+  double best = 1e30;
+  for (int rep = 0; rep < 3; ++rep) {
+    const double t0 = cpuNs();
+    uint32_t sum = 0;
+    for (size_t i = 0; i < q.tri.size(); ++i) sum += uint32_t(a.stateUVAs<E>(q.tri[i], q.u[i], q.v[i]));
+    const double t = cpuNs() - t0;
+    volatile uint32_t sink = sum;
+    (void)sink;
+    best = std::min(best, t / double(q.tri.size()));
+  }
+  return best;
+}
+double lookupNsAny(const somm::EncodedArray& a, const somm::OmmArray& flat, const Queries& q) {
+  if (q.tri.empty()) return 0;
+  switch (a.encoding()) {
+    case Encoding::Flat:
+      return lookupNs<Encoding::Flat>(a, flat, q);
+    case Encoding::Dfs:
+      return lookupNs<Encoding::Dfs>(a, flat, q);
+    case Encoding::DfsFast:
+      return lookupNs<Encoding::DfsFast>(a, flat, q);
+    case Encoding::Rank:
+      return lookupNs<Encoding::Rank>(a, flat, q);
+    case Encoding::Hybrid:
+      return lookupNs<Encoding::Hybrid>(a, flat, q);
+    case Encoding::Csm:
+      return lookupNs<Encoding::Csm>(a, flat, q);
+    case Encoding::Sdag:
+      return lookupNs<Encoding::Sdag>(a, flat, q);
+  }
+  return 0;
+}
 
 bool parseList(const std::string& text, std::vector<uint32_t>& out, uint32_t lo, uint32_t hi) {
   out.clear();
@@ -196,8 +277,8 @@ somm::Status writePlot(const std::string& path, const std::vector<Row>& rows,
   cv.line(left, top, left, bottom, ink);
   cv.text((left + right) / 2 - 15, bottom + 24, "level", ink);
   cv.text(4, 4, "ratio to flat", ink);
-  const std::array<std::array<uint8_t, 3>, 5> colors{
-      {{0, 0, 0}, {214, 39, 40}, {255, 127, 14}, {31, 119, 180}, {44, 160, 44}}};
+  const std::array<std::array<uint8_t, 3>, somm::kEncodingCount> colors{
+      {{0, 0, 0}, {214, 39, 40}, {255, 127, 14}, {31, 119, 180}, {44, 160, 44}, {148, 103, 189}, {140, 86, 75}}};
   int legendY = top + 10;
   for (Encoding e : somm::kAllEncodings)
     for (uint32_t f : formats) {
@@ -241,7 +322,7 @@ int run(const Options& o) {
     return kExitUsage;
   }
   somm::Scene scene;
-  if (o.scene.rfind("procedural:leaf-cards", 0) == 0) {
+  if (o.scene.rfind("procedural:leaf-cards", 0) == 0 && o.scenes.size() == 1) {
     uint64_t cards = 64;
     const std::string rest = o.scene.substr(std::string("procedural:leaf-cards").size());
     if (!rest.empty() &&
@@ -252,14 +333,22 @@ int run(const Options& o) {
     }
     scene = somm::makeLeafCardScene(uint32_t(cards), 1);
   } else {
+    // Several files are one scene (e.g. every model of a game's foliage): geometries in file order.
     somm::LoadOptions lo;
     if (!applyLimits("compare", o.limits, lo.limits)) return kExitUsage;
-    auto s = somm::loadScene(o.scene, lo);
-    if (!s) {
-      printError("compare", s.error().message);
-      return kExitFailure;
+    for (const std::string& path : o.scenes) {
+      auto s = somm::loadScene(path, lo);
+      if (!s) {
+        printError("compare", s.error().message);
+        return kExitFailure;
+      }
+      const uint32_t materialBase = uint32_t(scene.materials.size());
+      scene.materials.insert(scene.materials.end(), s->materials.begin(), s->materials.end());
+      for (somm::Geometry& g : s->geometries) {
+        g.material += materialBase;
+        scene.geometries.push_back(std::move(g));
+      }
     }
-    scene = std::move(*s);
   }
   std::vector<Row> rows;
   for (uint32_t states : formats)
@@ -269,8 +358,15 @@ int run(const Options& o) {
       row.states = states;
       somm::BakeOptions bo;
       bo.level = level;
+      if (o.texelsPerMicroTri > 0) {
+        bo.maxLevel = level;
+        bo.texelsPerMicroTri = o.texelsPerMicroTri;
+      }
       bo.format = states == 2 ? somm::Format::TwoState : somm::Format::FourState;
       bo.threads = o.threads;
+      // Per geometry with the library baker, then one scene-wide array (identical maps stored once) as the
+      // default bake stores it: every encoding is built from that array.
+      std::vector<somm::OmmArray> perGeometry;
       for (const somm::Geometry& g : scene.geometries) {
         if (g.material >= scene.materials.size()) continue;
         auto baked = somm::bakeGeometry(g, scene.materials[g.material], bo);
@@ -278,15 +374,79 @@ int run(const Options& o) {
           printError("compare", o.scene + ": geometry '" + g.name + "': " + baked.error().message);
           return kExitFailure;
         }
-        row.triangles += baked->array.indices.size();
-        row.maps += baked->array.descriptors.size();
-        for (Encoding e : somm::kAllEncodings) {
-          auto a = somm::EncodedArray::build(baked->array, e);
-          if (!a) {
-            printError("compare", o.scene + ": " + a.error().message);
-            return kExitFailure;
+        perGeometry.push_back(std::move(baked->array));
+      }
+      const somm::SceneMicromaps sm = somm::mergeToSceneArray(somm::perGeometryMicromaps(std::move(perGeometry)));
+      const somm::OmmArray flat = sm.arrays.empty() ? somm::OmmArray{} : sm.arrays[0];
+      row.triangles = flat.indices.size();
+      row.maps = flat.descriptors.size();
+      const Queries q = makeQueries(flat, o.lookups);
+      for (Encoding e : somm::kAllEncodings) {
+        auto a = somm::EncodedArray::build(flat, e);
+        if (!a) {
+          printError("compare", o.scene + ": " + a.error().message);
+          return kExitFailure;
+        }
+        row.bytes[size_t(e)] = a->byteSize();
+        if (e == Encoding::Sdag && o.sdagStats) {
+          // Bytes per DAG height (both formats) and the maps stored flat.
+          const auto& dir = a->directory();
+          std::string line = "sdag L" + std::to_string(level) + ":";
+          for (uint32_t h = 1; h <= 6; ++h) {
+            uint64_t b = 0, w = 0;
+            for (uint32_t f = 1; f <= 2; ++f) {
+              const uint32_t k = somm::encode::sdagRegion(somm::Format(f), h);
+              b += dir.base[k + 1] - dir.base[k];
+              w = std::max<uint64_t>(w, dir.width[k]);
+            }
+            line += " h" + std::to_string(h) + " " + std::to_string(b) + " B (ref " + std::to_string(w) + " bits)";
           }
-          row.bytes[size_t(e)] += a->byteSize();
+          // Records and references per height (4-state regions), and how the leaf references spread.
+          {
+            const uint8_t* data = a->data().data();
+            std::vector<uint32_t> leafRefs;
+            for (uint32_t h = 2; h <= 6; ++h) {
+              const uint32_t k = somm::encode::sdagRegion(somm::Format::FourState, h);
+              uint64_t recs = 0, refs = 0;
+              const uint32_t w = dir.width[k - 1];
+              for (uint64_t off = dir.base[k]; off < dir.base[k + 1];) {
+                const uint8_t* p = data + off;
+                const uint32_t m = somm::encode::load16(p), n = somm::encode::popcount64(m);
+                if (h == 2)
+                  for (uint32_t i = 0; i < n; ++i) {
+                    const uint32_t r = somm::encode::getBits(p, 16 + 2 * (16 - n) + w * i, w);
+                    if (r >= leafRefs.size()) leafRefs.resize(r + 1);
+                    ++leafRefs[r];
+                  }
+                off += (16 + 2 * (16 - n) + w * n + 7) / 8;
+                ++recs;
+                refs += n;
+              }
+              line += " [h" + std::to_string(h) + ": " + std::to_string(recs) + " records, " + std::to_string(refs) +
+                      " refs]";
+            }
+            std::sort(leafRefs.rbegin(), leafRefs.rend());
+            uint64_t total = 0, top = 0, once = 0;
+            for (size_t i = 0; i < leafRefs.size(); ++i) {
+              total += leafRefs[i];
+              if (i < 256) top += leafRefs[i];
+              once += leafRefs[i] == 1;
+            }
+            line += " leaves " + std::to_string(leafRefs.size()) + ", refs " + std::to_string(total) + ", to top-256 " +
+                    std::to_string(top) + ", leaves referenced once " + std::to_string(once);
+          }
+          uint64_t flatMaps = 0;
+          for (const auto& d : a->maps()) flatMaps += d.kind == somm::MapKind::Flat;
+          line += ", other " + std::to_string(a->dataBytes() - dir.base[somm::encode::kSdagRegions]) + " B, " +
+                  std::to_string(flatMaps) + " maps flat, indices+descriptors " +
+                  std::to_string(a->byteSize() - a->dataBytes() - a->paddingBytes()) + " B\n";
+          std::fputs(line.c_str(), stderr);
+        }
+        if (e == Encoding::Flat) row.xz = xzBytes(a->serialize());
+        row.ns[size_t(e)] = lookupNsAny(*a, flat, q);
+        if (row.ns[size_t(e)] < 0) {
+          printError("compare", o.scene + ": encoding " + somm::encodingName(e) + " disagrees with flat");
+          return kExitFailure;
         }
       }
       rows.push_back(row);
@@ -300,8 +460,20 @@ int run(const Options& o) {
     for (const Row& r : rows) {
       nlohmann::json x{
           {"level", r.level}, {"format", r.states}, {"triangles", r.triangles}, {"micromaps", r.maps}};
-      for (Encoding e : somm::kAllEncodings)
-        x[somm::encodingName(e)] = {{"bytes", r.bytes[size_t(e)]}, {"ratio_to_flat", r.ratio(e)}};
+      for (Encoding e : somm::kAllEncodings) {
+        nlohmann::json c{{"bytes", r.bytes[size_t(e)]},
+                         {"ratio_to_flat", r.ratio(e)},
+                         {"ratio_to_dfs", r.ratioTo(e, r.bytes[size_t(Encoding::Dfs)])},
+                         {"ratio_to_csm", r.ratioTo(e, r.bytes[size_t(Encoding::Csm)])},
+                         {"ratio_to_xz", r.ratioTo(e, r.xz)}};
+        if (o.lookups) {
+          c["lookup_ns"] = r.ns[size_t(e)];
+          c["lookup_x_flat"] = r.ns[0] > 0 ? r.ns[size_t(e)] / r.ns[0] : 0.0;
+        }
+        x[somm::encodingName(e)] = std::move(c);
+      }
+      x["xz-9"] = {{"bytes", r.xz}, {"ratio_to_flat", r.bytes[0] ? double(r.xz) / double(r.bytes[0]) : 0.0},
+                   {"random_access", false}};
       rs.push_back(std::move(x));
     }
     j["rows"] = rs;
@@ -332,6 +504,25 @@ int run(const Options& o) {
         }
       out.put("\n");
     }
+    out.put("\nratios to dfs / csm / xz -9 of the flat array, and ns per random lookup (x flat, same run)\n");
+    std::snprintf(buf, sizeof buf, "%5s %6s %10s", "level", "format", "xz-9");
+    out.put(buf);
+    for (Encoding e : somm::kAllEncodings) {
+      std::snprintf(buf, sizeof buf, " %27s", somm::encodingName(e));
+      out.put(buf);
+    }
+    out.put("\n");
+    for (const Row& r : rows) {
+      std::snprintf(buf, sizeof buf, "%5u %6u %10llu", r.level, r.states, (unsigned long long)r.xz);
+      out.put(buf);
+      for (Encoding e : somm::kAllEncodings) {
+        std::snprintf(buf, sizeof buf, " %5.3f/%5.3f/%5.2f %5.0f(%4.2fx)",
+                      r.ratioTo(e, r.bytes[size_t(Encoding::Dfs)]), r.ratioTo(e, r.bytes[size_t(Encoding::Csm)]),
+                      r.ratioTo(e, r.xz), r.ns[size_t(e)], r.ns[0] > 0 ? r.ns[size_t(e)] / r.ns[0] : 0.0);
+        out.put(buf);
+      }
+      out.put("\n");
+    }
   }
   out.flush();
   if (!o.plot.empty()) {
@@ -349,9 +540,11 @@ void setup(CLI::App& root) {
   CLI::App* cmd = root.add_subcommand("compare",
                                       "Bake a scene at several levels and formats and print the memory of "
                                       "every encoding (flat, dfs, dfs-fast, "
-                                      "rank, hybrid): exact bytes and ratio to flat. SCENE is a "
+                                      "rank, hybrid, csm, sdag) of the scene-wide array: exact bytes, ratios to "
+                                      "flat, dfs, csm and xz -9, ns per lookup. SCENE is a "
                                       ".gltf/.glb/.obj file or procedural:leaf-cards[:N].");
-  cmd->add_option("scene", opts->scene, "scene file or procedural:leaf-cards[:N]")->required();
+  cmd->add_option("scene", opts->scenes, "scene file(s) (several files are one scene) or procedural:leaf-cards[:N]")
+      ->required();
   cmd->add_option("--levels", opts->levels, "comma list of subdivision levels 0..12 (default 4,6,8,10,12)");
   cmd->add_option("--formats", opts->formats, "comma list of formats: 2 and/or 4 states (default 2,4)");
   cmd->add_flag("--json", opts->json,
@@ -360,7 +553,16 @@ void setup(CLI::App& root) {
   cmd->add_option("--plot", opts->plot, "write a PNG plot of the ratio to flat against the level");
   cmd->add_option("--threads", opts->threads, "bake threads (0 = all)")->check(CLI::Range(0u, 1024u));
   somm::cli::addLimitOption(cmd, opts->limits);
-  cmd->callback([opts] { somm::cli::setExitCode(run(*opts)); });
+  cmd->add_option("--texels-per-microtri", opts->texelsPerMicroTri,
+                  "adaptive levels (as bake --texels-per-microtri): each --levels value is the cap --max-level");
+  cmd->add_flag("--sdag-stats", opts->sdagStats, "print the bytes of the sdag DAG per height to stderr");
+  cmd->add_option("--lookups", opts->lookups,
+                  "random (u, v) lookups timed per encoding, checked against flat (0 = do not time; default 20000)");
+  cmd->callback([opts] {
+    opts->scene.clear();
+    for (const std::string& p : opts->scenes) opts->scene += (opts->scene.empty() ? "" : " + ") + p;
+    somm::cli::setExitCode(run(*opts));
+  });
 }
 
 const somm::cli::Registration reg("compare", &setup);

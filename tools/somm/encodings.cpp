@@ -21,6 +21,10 @@ uint32_t encodingSectionId(Encoding e) noexcept {
       return sectionId("rank");
     case Encoding::Hybrid:
       return sectionId("hybr");
+    case Encoding::Csm:
+      return sectionId("csm ");
+    case Encoding::Sdag:
+      return sectionId("sdag");
   }
   return 0;
 }
@@ -38,7 +42,9 @@ std::string sectionName(uint32_t id) {
 
 Status addEncodingSections(const OmmArray& array, std::vector<EncodedSection>& extra,
                            std::span<const Encoding> encodings) {
-  for (Encoding e : encodings) {
+  for (Encoding requested : encodings) {
+    // dfs-fast is the dfs tree with another lookup: one "dfs " section serves both.
+    const Encoding e = EncodedArray::storedEncoding(requested);
     if (e == Encoding::Flat) continue;
     auto a = EncodedArray::build(array, e);
     if (!a) return a.error();
@@ -68,18 +74,22 @@ Result<EncodedArray> loadEncoding(const SommFile& file, uint32_t array, Encoding
     if (!a) return makeError(a.error().code, where + ": " + a.error().message);
     return a;
   }
-  for (const EncodedSection& s : file.encodings[array]) {
-    if (s.id != encodingSectionId(e)) continue;
-    auto a = EncodedArray::parse(s.bytes, where + " encoding '" + encodingName(e) + "'");
-    if (!a) return a;
-    if (a->encoding() != e || a->triangleCount() != flat.indices.size())
-      return makeError(ErrorCode::CorruptFile,
-                       where + ": encoding '" + encodingName(e) +
-                           "' does not match the array (encoding id or triangle count)");
-    if (Status v = verifyAgainstFlat(*a, flat, where + " encoding '" + encodingName(e) + "'"); !v)
-      return v.error();
-    return a;
-  }
+  // dfs-fast reads the dfs section (files from before the shared section may hold a "dfsf" copy).
+  const uint32_t ids[2] = {encodingSectionId(EncodedArray::storedEncoding(e)), encodingSectionId(e)};
+  for (uint32_t id : ids)
+    for (const EncodedSection& s : file.encodings[array]) {
+      if (s.id != id) continue;
+      auto a = EncodedArray::parse(s.bytes, where + " encoding '" + encodingName(e) + "'");
+      if (!a) return a;
+      a->setLookup(e);
+      if (a->encoding() != e || a->triangleCount() != flat.indices.size())
+        return makeError(ErrorCode::CorruptFile,
+                         where + ": encoding '" + encodingName(e) +
+                             "' does not match the array (encoding id or triangle count)");
+      if (Status v = verifyAgainstFlat(*a, flat, where + " encoding '" + encodingName(e) + "'"); !v)
+        return v.error();
+      return a;
+    }
   return makeError(
       ErrorCode::InvalidArgument,
       where + " stores no '" + encodingName(e) + "' encoding (bake with --encoding " + encodingName(e) + ")");
@@ -133,6 +143,11 @@ Result<EncodingSizes> encodingSizes(const SommFile& file, uint32_t array, std::s
       s.stored.emplace_back(*e, a->byteSize());
     else
       s.invalid.emplace_back(*e, a.error().message);
+    // The dfs section also serves dfs-fast (same bytes, another lookup).
+    if (a && *e == Encoding::Dfs &&
+        std::none_of(file.encodings[array].begin(), file.encodings[array].end(),
+                     [](const EncodedSection& x) { return x.id == encodingSectionId(Encoding::DfsFast); }))
+      s.stored.emplace_back(Encoding::DfsFast, a->byteSize());
   }
   std::sort(s.stored.begin(), s.stored.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   if (compressed) {

@@ -1033,11 +1033,6 @@ Result<EncodedArray> EncodedArray::build(const OmmArray& array, Encoding encodin
     const Format f = Format(d.format);
     if (uint64_t(d.dataOffset) + micromapDataBytes(d.subdivisionLevel, f) > array.data.size())
       return makeError(ErrorCode::InvalidArgument, "OMM array descriptor points past the data buffer");
-    const auto key = std::make_tuple(d.dataOffset, d.subdivisionLevel, d.format);
-    if (auto it = seen.find(key); it != seen.end()) {
-      out.maps_.push_back(it->second);
-      continue;
-    }
     const auto [it, fresh] =
         seen.emplace(std::make_tuple(d.dataOffset, d.subdivisionLevel, d.format), uint32_t(maps.size()));
     mapOfDescriptor.push_back(it->second);

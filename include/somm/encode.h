@@ -539,6 +539,8 @@ class EncodedArray {
   // Back to the spec buffers: micromaps in descriptor order at contiguous offsets, usage histograms as
   // OmmArrayBuilder computes them. Bit-exact against an array made by OmmArrayBuilder.
   OmmArray decode() const;
+  // Map `map` (< mapCount()) decoded to the spec layout.
+  Micromap decodeMap(uint32_t map) const;
 
   std::vector<uint8_t> serialize() const;
   // Validating parser: any byte string either parses into an array whose every lookup stays in bounds or

@@ -1103,14 +1103,19 @@ Result<EncodedArray> EncodedArray::build(const OmmArray& array, Encoding encodin
   return out;
 }
 
+Micromap EncodedArray::decodeMap(uint32_t map) const {
+  const EncodedMapDesc& d = maps_[map];
+  return d.kind == MapKind::Csm || d.kind == MapKind::Sdag
+             ? encode::decodeDagMap(data_.data(), &dir_, d.offset, d.kind, d.level, Format(d.format))
+             : encode::decodeMap(data_.data() + d.offset, d.kind, d.level, Format(d.format));
+}
+
 OmmArray EncodedArray::decode() const {
   OmmArray a;
   a.indices = indices_;
-  for (const EncodedMapDesc& d : maps_) {
-    const Micromap m =
-        d.kind == MapKind::Csm || d.kind == MapKind::Sdag
-            ? encode::decodeDagMap(data_.data(), &dir_, d.offset, d.kind, d.level, Format(d.format))
-            : encode::decodeMap(data_.data() + d.offset, d.kind, d.level, Format(d.format));
+  for (uint32_t i = 0; i < maps_.size(); ++i) {
+    const EncodedMapDesc& d = maps_[i];
+    const Micromap m = decodeMap(i);
     a.descriptors.push_back(TriangleDescriptor{uint32_t(a.data.size()), d.level, d.format});
     a.data.insert(a.data.end(), m.bytes().begin(), m.bytes().end());
   }
@@ -1299,7 +1304,7 @@ Status verifyAgainstFlat(const EncodedArray& e, const OmmArray& flat, std::strin
         return makeError(ErrorCode::LimitExceeded,
                          w + ": checking this encoding against flat would decode more than " + std::to_string(budget) +
                              " micro-triangle states (its maps are shared beyond what the data can hold)");
-      maps.push_back(encode::decodeMap(e.data().data() + m.offset, m.kind, m.level, Format(m.format)));
+      maps.push_back(e.decodeMap(uint32_t(i)));
       it = decoded.emplace(key, maps.size() - 1).first;
     }
     if (!compared.emplace(std::make_pair(it->second, d.dataOffset), true).second) continue;

@@ -9,14 +9,14 @@ Result<std::vector<GpuEncoding>> loadGpuEncodings(const SommFile& file, const st
                                                   const std::string& encoding) {
   std::vector<Encoding> wanted;
   if (encoding == "all") {
-    // flat, then every encoding that each geometry stores
+    // flat, then every encoding that each array stores (dfs-fast reads the dfs section)
     for (Encoding e : kAllEncodings) {
       bool everywhere = !file.micromaps.arrays.empty();
       if (e != Encoding::Flat)
         for (size_t a = 0; a < file.micromaps.arrays.size(); ++a) {
           bool has = false;
           if (a < file.encodings.size())
-            for (const EncodedSection& s : file.encodings[a]) has = has || s.id == encodingSectionId(e);
+            for (const EncodedSection& s : file.encodings[a]) has = has || s.id == encodingSectionId(EncodedArray::storedEncoding(e));
           everywhere = everywhere && has;
         }
       if (everywhere || e == Encoding::Flat) wanted.push_back(e);
@@ -25,7 +25,7 @@ Result<std::vector<GpuEncoding>> loadGpuEncodings(const SommFile& file, const st
     const auto e = parseEncodingName(encoding);
     if (!e)
       return makeError(ErrorCode::InvalidArgument,
-                       "--encoding '" + encoding + "' is not one of flat, dfs, dfs-fast, rank, hybrid, all");
+                       "--encoding '" + encoding + "' is not one of flat, dfs, dfs-fast, rank, hybrid, csm, sdag, all");
     wanted.push_back(*e);
   }
   std::vector<GpuEncoding> out;

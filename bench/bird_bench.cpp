@@ -25,12 +25,16 @@ const Points& points() {
     const size_t n = 1 << 16;
     for (size_t i = 0; i < n; ++i) {
       float a = d(rng), b = d(rng);
-      if (a + b > 1.f) { a = 1.f - a; b = 1.f - b; }
+      if (a + b > 1.f) {
+        a = 1.f - a;
+        b = 1.f - b;
+      }
       p.u.push_back(a);
       p.v.push_back(b);
     }
     for (uint32_t l = 0; l <= 12; ++l)
-      for (size_t i = 0; i < n; ++i) p.want[l].push_back(somm::reference::BarycentricsToSpaceFillingCurveIndex(p.u[i], p.v[i], l));
+      for (size_t i = 0; i < n; ++i)
+        p.want[l].push_back(somm::reference::BarycentricsToSpaceFillingCurveIndex(p.u[i], p.v[i], l));
     return p;
   }();
   return p;
@@ -52,16 +56,29 @@ void runScalar(benchmark::State& state) {
     benchmark::ClobberMemory();
   }
   state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(p.u.size()));
-  state.counters["ns_per_index"] = benchmark::Counter(double(p.u.size()), benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  state.counters["ns_per_index"] = benchmark::Counter(
+      double(p.u.size()), benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 
-uint32_t reference(float u, float v, uint32_t l) { return somm::reference::BarycentricsToSpaceFillingCurveIndex(u, v, l); }
-uint32_t ours(float u, float v, uint32_t l) { return somm::baryToIndex(u, v, l); }
-uint32_t descent(float u, float v, uint32_t l) { return somm::baryToIndexDescent(u, v, l); }
+uint32_t reference(float u, float v, uint32_t l) {
+  return somm::reference::BarycentricsToSpaceFillingCurveIndex(u, v, l);
+}
+uint32_t ours(float u, float v, uint32_t l) {
+  return somm::baryToIndex(u, v, l);
+}
+uint32_t descent(float u, float v, uint32_t l) {
+  return somm::baryToIndexDescent(u, v, l);
+}
 
-void BM_Index_Reference(benchmark::State& s) { runScalar<reference>(s); }
-void BM_Index_Ours(benchmark::State& s) { runScalar<ours>(s); }
-void BM_Index_PaperDescent(benchmark::State& s) { runScalar<descent>(s); }
+void BM_Index_Reference(benchmark::State& s) {
+  runScalar<reference>(s);
+}
+void BM_Index_Ours(benchmark::State& s) {
+  runScalar<ours>(s);
+}
+void BM_Index_PaperDescent(benchmark::State& s) {
+  runScalar<descent>(s);
+}
 
 void BM_Index_OursBatch(benchmark::State& state) {
   const Points& p = points();
@@ -83,7 +100,8 @@ void BM_Index_OursBatch(benchmark::State& state) {
     benchmark::ClobberMemory();
   }
   state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(p.u.size()));
-  state.counters["ns_per_index"] = benchmark::Counter(double(p.u.size()), benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  state.counters["ns_per_index"] = benchmark::Counter(
+      double(p.u.size()), benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
   state.SetLabel(somm::batchIsaName(isa));
 }
 
@@ -93,4 +111,3 @@ BENCHMARK(BM_Index_OursBatch)->ArgsProduct({{4, 8, 12}, {1, 2, 3}});
 BENCHMARK(BM_Index_PaperDescent)->Arg(4)->Arg(8)->Arg(12);
 
 }  // namespace
-

@@ -4,9 +4,8 @@
 // array first and reports its time and size as ratios to flat measured in the same run (counters x_flat and
 // bytes_x_flat).
 #include <benchmark/benchmark.h>
-#include <time.h>
-
 #include <lzma.h>
+#include <time.h>
 
 #include <algorithm>
 #include <cmath>
@@ -103,7 +102,8 @@ void addQueries(Scene& s, uint32_t seed) {
   }
   const EncodedArray flat = EncodedArray::build(s.flat, Encoding::Flat).value();
   s.flatBytes = flat.byteSize();
-  s.flatNs = nsPerLookup(s, [&](uint32_t t, float u, float v) { return flat.stateUVAs<Encoding::Flat>(t, u, v); });
+  s.flatNs =
+      nsPerLookup(s, [&](uint32_t t, float u, float v) { return flat.stateUVAs<Encoding::Flat>(t, u, v); });
 }
 
 // The bundled oak tree (data/oak-tree), baked at the level: its alpha-tested geometry with the most triangles.
@@ -124,7 +124,8 @@ const Scene& oakScene(uint32_t level, Format format) {
     o.level = level;
     o.format = format;
     if (best)
-      if (auto baked = bakeGeometry(*best, scene->materials[best->material], o)) s.flat = std::move(baked->array);
+      if (auto baked = bakeGeometry(*best, scene->materials[best->material], o))
+        s.flat = std::move(baked->array);
   }
   if (!s.flat.indices.empty()) addQueries(s, level * 5 + uint32_t(format));
   return cache.emplace(std::make_pair(level, format), std::move(s)).first->second;
@@ -198,8 +199,8 @@ uint64_t xz9(const std::vector<uint8_t>& bytes) {
   lzma_filter filters[2] = {{LZMA_FILTER_LZMA2, &opt}, {LZMA_VLI_UNKNOWN, nullptr}};
   std::vector<uint8_t> out(lzma_stream_buffer_bound(bytes.size()));
   size_t pos = 0;
-  if (lzma_stream_buffer_encode(filters, LZMA_CHECK_CRC64, nullptr, bytes.data(), bytes.size(), out.data(), &pos,
-                                out.size()) != LZMA_OK)
+  if (lzma_stream_buffer_encode(filters, LZMA_CHECK_CRC64, nullptr, bytes.data(), bytes.size(), out.data(),
+                                &pos, out.size()) != LZMA_OK)
     return 0;
   return pos;
 }
@@ -279,8 +280,8 @@ const RealScene& realScene(int which, uint32_t level) {
       }
       const EncodedArray flat = EncodedArray::build(s.flat, Encoding::Flat).value();
       s.flatBytes = flat.byteSize();
-      s.flatNs =
-          nsPerLookup(s, [&](uint32_t t, float u, float v) { return flat.stateUVAs<Encoding::Flat>(t, u, v); });
+      s.flatNs = nsPerLookup(
+          s, [&](uint32_t t, float u, float v) { return flat.stateUVAs<Encoding::Flat>(t, u, v); });
     }
   }
   if (s.tri.empty()) s.flat = OmmArray{};

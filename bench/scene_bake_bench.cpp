@@ -16,9 +16,9 @@
 
 #include <array>
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
-#include <cmath>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -35,7 +35,8 @@ namespace {
 double cpuSeconds() {
   rusage ru{};
   getrusage(RUSAGE_SELF, &ru);
-  return double(ru.ru_utime.tv_sec + ru.ru_stime.tv_sec) + 1e-6 * double(ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);
+  return double(ru.ru_utime.tv_sec + ru.ru_stime.tv_sec) +
+         1e-6 * double(ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);
 }
 
 const somm::Scene* loadShared(const std::string& rel) {
@@ -154,8 +155,10 @@ uint64_t violations(const somm::Scene& scene, const somm::SceneBake& b, uint64_t
         for (int p = 0; p < 4; ++p) {
           double x = d(rng), y = d(rng);
           if (x + y > 1) x = 1 - x, y = 1 - y;
-          const float bu = float((mt.v[0].u + x * (double(mt.v[1].u) - mt.v[0].u) + y * (double(mt.v[2].u) - mt.v[0].u)) * sc);
-          const float bv = float((mt.v[0].v + x * (double(mt.v[1].v) - mt.v[0].v) + y * (double(mt.v[2].v) - mt.v[0].v)) * sc);
+          const float bu = float(
+              (mt.v[0].u + x * (double(mt.v[1].u) - mt.v[0].u) + y * (double(mt.v[2].u) - mt.v[0].u)) * sc);
+          const float bv = float(
+              (mt.v[0].v + x * (double(mt.v[1].v) - mt.v[0].v) + y * (double(mt.v[2].v) - mt.v[0].v)) * sc);
           const somm::State traced = b.micromaps.state(g, t, somm::baryToIndex(bu, bv, level));
           if (!somm::isKnown(traced)) continue;
           float S, T;
@@ -253,7 +256,8 @@ void BM_BakeScene(benchmark::State& state, const char* rel) {
       state.counters["vs_pergeometry"] = (cpuSeconds() - c0) / cpu;
     }
   }
-  state.SetLabel(std::string(rel) + " level " + std::to_string(level) + " threads " + std::to_string(threads));
+  state.SetLabel(std::string(rel) + " level " + std::to_string(level) + " threads " +
+                 std::to_string(threads));
 }
 
 BENCHMARK_CAPTURE(BM_BakeScene, forza, "torcs-forza/forza.obj")

@@ -64,7 +64,8 @@ TraceBench prepare(const BenchScene& sc) {
   TraceBench b;
   std::shared_ptr<const somm::Scene> scene;
   if (sc.path.empty()) {
-    scene = std::make_shared<const somm::Scene>(somm::testing::makeCardScene(kCards, 1, kTexture, /*specks=*/false));
+    scene = std::make_shared<const somm::Scene>(
+        somm::testing::makeCardScene(kCards, 1, kTexture, /*specks=*/false));
   } else {
     auto loaded = somm::loadScene(sc.path);
     if (!loaded) {
@@ -95,8 +96,9 @@ TraceBench prepare(const BenchScene& sc) {
       }
       arrays.push_back(std::move(baked->array));
     }
-    (f == somm::Format::FourState ? b.micromaps.flat4 : b.micromaps.flat2) = std::make_shared<const somm::SceneMicromaps>(
-        somm::mergeToSceneArray(somm::perGeometryMicromaps(std::move(arrays))));
+    (f == somm::Format::FourState ? b.micromaps.flat4 : b.micromaps.flat2) =
+        std::make_shared<const somm::SceneMicromaps>(
+            somm::mergeToSceneArray(somm::perGeometryMicromaps(std::move(arrays))));
   }
   b.micromaps.bitmaskLevel = kLevel;
   b.settings.width = 320;
@@ -105,7 +107,8 @@ TraceBench prepare(const BenchScene& sc) {
   b.settings.camera = sc.camera;
   b.texture = somm::makeTextureTracer(b.world).value();
   b.reference = b.texture->render(b.settings);
-  if (b.reference.counters.alphaTestedPixels == 0) b.error = sc.name + ": the view hits no alpha-tested geometry";
+  if (b.reference.counters.alphaTestedPixels == 0)
+    b.error = sc.name + ": the view hits no alpha-tested geometry";
   return b;
 }
 
@@ -122,7 +125,8 @@ void runMethod(benchmark::State& state, const BenchScene& sc, const std::string&
   auto spec = somm::parseMethod(name);
   if (!spec) return state.SkipWithError(spec.error().message.c_str());
   // The bitmask needs N²/4 bytes per triangle: skip it where that exceeds 1 GB.
-  if (spec->kind == somm::MethodKind::Bitmask && b.world->alphaTestedTriangles() * (1ull << (2 * kLevel)) / 4 > (1ull << 30))
+  if (spec->kind == somm::MethodKind::Bitmask &&
+      b.world->alphaTestedTriangles() * (1ull << (2 * kLevel)) / 4 > (1ull << 30))
     return state.SkipWithError("bitmask: more than 1 GB of masks");
   auto made = somm::makeTracer(b.world, *spec, b.micromaps);
   if (!made) return state.SkipWithError(made.error().message.c_str());
@@ -147,7 +151,8 @@ void runMethod(benchmark::State& state, const BenchScene& sc, const std::string&
   std::sort(ratios.begin(), ratios.end());
   const double rays = double(counters.rays());
   state.counters["Mrays_s"] = rays * double(state.iterations()) / methodSeconds / 1e6;
-  state.counters["vs_texture"] = ratios.empty() ? 0.0 : ratios[ratios.size() / 2];  // median of per-run ratios
+  state.counters["vs_texture"] =
+      ratios.empty() ? 0.0 : ratios[ratios.size() / 2];  // median of per-run ratios
   state.counters["filter_per_ray"] = double(counters.filterCalls) / rays;
   state.counters["tex_per_ray"] = double(counters.textureTests) / rays;
   state.counters["omm_bytes"] = double(tracer->micromapBytes());

@@ -76,7 +76,8 @@ int main(int argc, char** argv) {
   data = malloc(info.data_size ? (size_t)info.data_size : 1);
   triangles = malloc(info.triangle_count ? (size_t)info.triangle_count * 8 : 1);
   indices = malloc(ginfo.index_size ? (size_t)ginfo.index_size : 1);
-  usage = (somm_usage_count*)malloc(sizeof(somm_usage_count) * (info.usage_count_count ? info.usage_count_count : 1));
+  usage = (somm_usage_count*)malloc(sizeof(somm_usage_count) *
+                                    (info.usage_count_count ? info.usage_count_count : 1));
   if (!data || !triangles || !indices || !usage) return 1;
   memset(&buffers, 0, sizeof buffers);
   buffers.data = data;

@@ -19,7 +19,8 @@ int main(int argc, char** argv) {
   auto alpha = std::make_shared<somm::AlphaTexture>();
   alpha->width = alpha->height = EX_TEX;
   alpha->alpha.resize(EX_TEX * EX_TEX);
-  for (size_t i = 0; i < alpha->alpha.size(); ++i) alpha->alpha[i] = float(double(scene.rgba[4 * i + 3]) / 255.0);
+  for (size_t i = 0; i < alpha->alpha.size(); ++i)
+    alpha->alpha[i] = float(double(scene.rgba[4 * i + 3]) / 255.0);
   somm::Material material;
   material.alphaMode = somm::AlphaMode::Mask;  // the default is Opaque: nothing would be baked
   material.alphaCutoff = 0.5f;
@@ -36,8 +37,9 @@ int main(int argc, char** argv) {
   }
   const somm::OmmArray& a = baked->array;
   const std::vector<uint8_t> triangles = a.descriptorBytes(), indices = a.indexBufferBytes();
-  std::printf("%zu triangles: %zu micromaps; data %zu bytes, triangle array %zu bytes, index buffer %zu bytes\n",
-              a.indices.size(), a.descriptors.size(), a.data.size(), triangles.size(), indices.size());
+  std::printf(
+      "%zu triangles: %zu micromaps; data %zu bytes, triangle array %zu bytes, index buffer %zu bytes\n",
+      a.indices.size(), a.descriptors.size(), a.data.size(), triangles.size(), indices.size());
   auto rank = somm::EncodedArray::build(a, somm::Encoding::Rank);
   if (!rank) {
     std::fprintf(stderr, "bake_from_memory_cpp17: %s\n", rank.error().message.c_str());
@@ -46,8 +48,9 @@ int main(int argc, char** argv) {
   uint32_t mismatches = 0;
   for (uint32_t t = 0; t < a.indices.size(); ++t)
     mismatches += rank->stateUV(t, 0.25f, 0.25f) != a.stateUV(t, 0.25f, 0.25f);
-  std::printf("rank encoding %llu bytes (flat %zu), lookups equal: %s\n", (unsigned long long)rank->byteSize(),
-              a.data.size() + triangles.size() + indices.size(), mismatches == 0 ? "yes" : "NO");
+  std::printf("rank encoding %llu bytes (flat %zu), lookups equal: %s\n",
+              (unsigned long long)rank->byteSize(), a.data.size() + triangles.size() + indices.size(),
+              mismatches == 0 ? "yes" : "NO");
   if (mismatches) return 1;
   if (argc > 1) {
     const std::string dir = argv[1], arr = dir + "/array-0", geo = dir + "/geometry-0";

@@ -28,7 +28,7 @@ static inline void ex_make_scene(ex_scene* s) {
     for (x = 0; x < EX_TEX; ++x) {
       /* a leaf: inside the ellipse ((x-32)/28)^2 + ((y-32)/13)^2 < 1, with a one-texel half-alpha rim and a vein */
       const int dx = 2 * x + 1 - EX_TEX, dy = 2 * y + 1 - EX_TEX; /* in half texels */
-      const long e = (long)dx * dx * 169 + (long)dy * dy * 784;  /* < 56² · 13² · 4 · 4 inside */
+      const long e = (long)dx * dx * 169 + (long)dy * dy * 784;   /* < 56² · 13² · 4 · 4 inside */
       const long r = 4L * 56 * 56 * 169;
       uint8_t* p = &s->rgba[4 * (y * EX_TEX + x)];
       p[0] = (uint8_t)(40 + x);
@@ -86,7 +86,8 @@ static inline int ex_write_obj_scene(const ex_scene* s, const char* dir) {
   snprintf(path, sizeof path, "%s/scene.obj", dir);
   if (!(f = fopen(path, "w"))) return 1;
   fprintf(f, "mtllib scene.mtl\no cards\nusemtl leaf\n");
-  for (i = 0; i < EX_VERTICES; ++i) fprintf(f, "v %.9g %.9g %.9g\n", s->vertices[i].x, s->vertices[i].y, s->vertices[i].z);
+  for (i = 0; i < EX_VERTICES; ++i)
+    fprintf(f, "v %.9g %.9g %.9g\n", s->vertices[i].x, s->vertices[i].y, s->vertices[i].z);
   for (i = 0; i < EX_VERTICES; ++i) fprintf(f, "vt %.9g %.9g\n", s->vertices[i].u, s->vertices[i].v);
   for (i = 0; i < EX_TRIANGLES; ++i) {
     const int a = s->indices[3 * i] + 1, b = s->indices[3 * i + 1] + 1, c = s->indices[3 * i + 2] + 1;

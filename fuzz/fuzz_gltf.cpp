@@ -32,12 +32,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (mm.geometries.size() != m->value.geometries.size()) fuzz::fail("fuzz_gltf", "geometry count mismatch");
   for (uint32_t g = 0; g < mm.geometries.size(); ++g) {
     const GeometryMicromaps& r = mm.geometries[g];
-    if (r.array >= mm.arrays.size() || uint64_t(r.firstTriangle) + r.triangleCount > mm.arrays[r.array].indices.size())
+    if (r.array >= mm.arrays.size() ||
+        uint64_t(r.firstTriangle) + r.triangleCount > mm.arrays[r.array].indices.size())
       fuzz::fail("fuzz_gltf", "geometry outside its array");
     const OmmArray& a = mm.arrays[r.array];
     for (uint32_t t = 0; t < r.triangleCount; ++t) {
       const int32_t i = mm.indices(g)[t];
-      if (i < -4 || (i >= 0 && size_t(i) >= a.descriptors.size())) fuzz::fail("fuzz_gltf", "unresolvable lookup");
+      if (i < -4 || (i >= 0 && size_t(i) >= a.descriptors.size()))
+        fuzz::fail("fuzz_gltf", "unresolvable lookup");
       const uint32_t level = i >= 0 ? a.descriptors[size_t(i)].subdivisionLevel : 0;
       (void)mm.state(g, t, (1u << (2 * level)) - 1);  // the last micro-triangle's bits are inside the data
     }

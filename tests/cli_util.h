@@ -24,7 +24,8 @@ class TempDir {
  public:
   TempDir() {
     std::random_device rd;
-    path_ = std::filesystem::temp_directory_path() / ("somm-test-" + std::to_string(rd()) + std::to_string(rd()));
+    path_ =
+        std::filesystem::temp_directory_path() / ("somm-test-" + std::to_string(rd()) + std::to_string(rd()));
     std::filesystem::create_directories(path_);
   }
   ~TempDir() {
@@ -56,8 +57,8 @@ inline RunResult runSomm(const std::string& args, const std::string& stdinData =
   TempDir dir;
   const std::string in = dir.file("stdin"), out = dir.file("stdout"), err = dir.file("stderr");
   writeFile(in, stdinData);
-  const std::string cmd = std::string("'") + SOMM_CLI_PATH + "' " + args + " < '" + in + "' > '" + out + "' 2> '" +
-                          err + "'";
+  const std::string cmd =
+      std::string("'") + SOMM_CLI_PATH + "' " + args + " < '" + in + "' > '" + out + "' 2> '" + err + "'";
   const int status = std::system(cmd.c_str());
   RunResult r;
   r.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);

@@ -103,7 +103,8 @@ inline SommFile makeFile(std::vector<TestGeometry> geos, Layout layout) {
 }
 
 // Three geometries (4-state leaves, 2-state bark, an empty one) with a few opaque encoding sections.
-inline SommFile sampleFile(uint32_t trianglesPerGeometry = 40, uint32_t seed = 1, Layout layout = Layout::Scene) {
+inline SommFile sampleFile(uint32_t trianglesPerGeometry = 40, uint32_t seed = 1,
+                           Layout layout = Layout::Scene) {
   std::vector<TestGeometry> g;
   g.push_back(randomGeometry("leaves", trianglesPerGeometry, Format::FourState, 0, 3, seed));
   g.push_back(randomGeometry("bark", trianglesPerGeometry, Format::TwoState, 1, 4, seed + 1));

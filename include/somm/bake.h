@@ -73,7 +73,7 @@ struct BakeOptions {
   // 0 = no limit; else lower a level cap (the largest maps first) until the data fits. bakeScene: the data of all
   // of the scene's arrays together; bakeGeometry: that geometry's data.
   uint64_t maxBytes = 0;
-  uint32_t threads = 0;   // 0 = all hardware threads
+  uint32_t threads = 0;                         // 0 = all hardware threads
   BlendAs blend = BlendAs::Error;               // bakeScene: materials with alpha mode BLEND
   ArrayLayout layout = ArrayLayout::SceneWide;  // bakeScene: one array for the scene or one per geometry
   // Fraction done, 0..1, non-decreasing, ends at 1; called on the calling thread (the library never prints).
@@ -114,16 +114,16 @@ constexpr uint32_t texelChannels(TexelFormat f) noexcept {
   return f == TexelFormat::RG8 ? 2u : (f == TexelFormat::RGBA8 || f == TexelFormat::RGBA16) ? 4u : 1u;
 }
 constexpr uint32_t texelBytes(TexelFormat f) noexcept {
-  return f == TexelFormat::R8 ? 1u
-         : f == TexelFormat::RG8 || f == TexelFormat::R16 ? 2u
+  return f == TexelFormat::R8                                ? 1u
+         : f == TexelFormat::RG8 || f == TexelFormat::R16    ? 2u
          : f == TexelFormat::RGBA8 || f == TexelFormat::R32F ? 4u
                                                              : 8u;
 }
 constexpr const char* texelFormatName(TexelFormat f) noexcept {
-  return f == TexelFormat::R8      ? "R8"
-         : f == TexelFormat::RG8   ? "RG8"
-         : f == TexelFormat::RGBA8 ? "RGBA8"
-         : f == TexelFormat::R16   ? "R16"
+  return f == TexelFormat::R8       ? "R8"
+         : f == TexelFormat::RG8    ? "RG8"
+         : f == TexelFormat::RGBA8  ? "RGBA8"
+         : f == TexelFormat::R16    ? "R16"
          : f == TexelFormat::RGBA16 ? "RGBA16"
                                     : "R32F";
 }
@@ -135,7 +135,7 @@ struct TextureView {
   uint32_t width = 0, height = 0;
   size_t rowPitch = 0;  // bytes from one row to the next; 0 = width · texelBytes(format)
   TexelFormat format = TexelFormat::R8;
-  uint32_t alphaChannel = 0;  // the channel that holds alpha, 0..texelChannels(format) − 1
+  uint32_t alphaChannel = 0;   // the channel that holds alpha, 0..texelChannels(format) − 1
   const char* name = nullptr;  // for messages (e.g. the image's path); may be null
 };
 
@@ -163,7 +163,7 @@ struct GeometryInput {
   const float* uvs = nullptr;  // (s, t) of vertex i at byte offset i · uvStride
   size_t uvStride = 0;         // bytes between vertices' UVs; 0 = 8 (tightly packed pairs)
   uint32_t vertexCount = 0;
-  const void* indices = nullptr;             // 3 per triangle; IndexFormat::None: triangle t = vertices 3t..3t+2
+  const void* indices = nullptr;  // 3 per triangle; IndexFormat::None: triangle t = vertices 3t..3t+2
   IndexFormat indexFormat = IndexFormat::None;
   uint32_t triangleCount = 0;
   uint32_t material = 0;       // index into BakeInputs::materials
@@ -296,11 +296,11 @@ struct GeometryBake {
 };
 
 struct SceneBake {
-  SceneMicromaps micromaps;                // ArrayLayout::SceneWide: one array; PerGeometry: one per geometry
-  std::vector<GeometryBake> geometries;    // one per input geometry
-  BakeStats total;                         // uniqueMaps / dataBytes: of the arrays as stored
-  uint64_t classifiedTriangles = 0;        // distinct classification inputs actually classified (last pass)
-  uint64_t masks = 0, maskBytes = 0;       // alpha masks built and the memory they hold
+  SceneMicromaps micromaps;              // ArrayLayout::SceneWide: one array; PerGeometry: one per geometry
+  std::vector<GeometryBake> geometries;  // one per input geometry
+  BakeStats total;                       // uniqueMaps / dataBytes: of the arrays as stored
+  uint64_t classifiedTriangles = 0;      // distinct classification inputs actually classified (last pass)
+  uint64_t masks = 0, maskBytes = 0;     // alpha masks built and the memory they hold
 };
 
 Result<SceneBake> bakeScene(const BakeInputs& inputs, const BakeOptions& options);

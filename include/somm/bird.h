@@ -14,7 +14,9 @@ namespace somm {
 
 inline constexpr uint32_t kMaxLevel = 12;
 
-constexpr uint32_t microTriangleCount(uint32_t level) noexcept { return 1u << (2u * level); }
+constexpr uint32_t microTriangleCount(uint32_t level) noexcept {
+  return 1u << (2u * level);
+}
 
 namespace detail {
 
@@ -95,9 +97,7 @@ const char* baryToIndexBatchIsa() noexcept;
 // Integer barycentric grid point (u, v) in units of 2^-level.
 struct GridPoint {
   uint32_t u = 0, v = 0;
-  friend bool operator==(const GridPoint& a, const GridPoint& b) noexcept {
-    return a.u == b.u && a.v == b.v;
-  }
+  friend bool operator==(const GridPoint& a, const GridPoint& b) noexcept { return a.u == b.u && a.v == b.v; }
   friend bool operator!=(const GridPoint& a, const GridPoint& b) noexcept { return !(a == b); }
 };
 
@@ -126,10 +126,23 @@ inline MicroTriangle indexToMicroTriangle(uint32_t index, uint32_t level) noexce
     const GridPoint ac{(a.u + c.u) >> 1, (a.v + c.v) >> 1};
     const GridPoint bc{(b.u + c.u) >> 1, (b.v + c.v) >> 1};
     switch (digit) {
-      case 0: b = ab; c = ac; break;
-      case 1: a = ac; b = bc; c = ab; break;
-      case 2: a = ab; c = bc; break;
-      default: a = bc; b = ac; break;  // c stays
+      case 0:
+        b = ab;
+        c = ac;
+        break;
+      case 1:
+        a = ac;
+        b = bc;
+        c = ab;
+        break;
+      case 2:
+        a = ab;
+        c = bc;
+        break;
+      default:
+        a = bc;
+        b = ac;
+        break;  // c stays
     }
   }
   return MicroTriangle{{a, b, c}};

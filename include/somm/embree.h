@@ -125,7 +125,7 @@ class AttachedGeometry {
   friend Result<AttachedGeometry> attachMicromaps(RTCDevice, RTCScene, const TriangleMeshView&,
                                                   const MicromapSource&, AlphaTest, const AttachOptions&);
   unsigned opaqueId_ = RTC_INVALID_GEOMETRY_ID, filteredId_ = RTC_INVALID_GEOMETRY_ID;
-  std::vector<uint32_t> opaque_, filtered_;                  // part primID → caller's triangle
+  std::vector<uint32_t> opaque_, filtered_;                // part primID → caller's triangle
   std::vector<uint32_t> opaqueIndices_, filteredIndices_;  // the parts' index buffers (+ padding)
   size_t dropped_ = 0;
   std::shared_ptr<void> filterData_;
@@ -150,7 +150,8 @@ struct FlatLookup {
     const int32_t i = d.indices[global];
     if (i < 0) return stateOfSpecialIndex(i);
     const TriangleDescriptor& desc = d.descriptors[i];
-    return readPackedState(d.data + desc.dataOffset, Format(desc.format), baryToIndex(u, v, desc.subdivisionLevel));
+    return readPackedState(d.data + desc.dataOffset, Format(desc.format),
+                           baryToIndex(u, v, desc.subdivisionLevel));
   }
 };
 
@@ -238,8 +239,8 @@ inline unsigned attachPart(RTCDevice device, RTCScene scene, const TriangleMeshV
   RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
   if (!g) return RTC_INVALID_GEOMETRY_ID;
   rtcSetGeometryBuildQuality(g, quality);
-  rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, mesh.vertices, 0, mesh.vertexStride,
-                             mesh.vertexCount);
+  rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, mesh.vertices, 0,
+                             mesh.vertexStride, mesh.vertexCount);
   rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, indices.data(), 0,
                              3 * sizeof(uint32_t), triangles);
   if (filter) {
@@ -282,7 +283,8 @@ Result<AttachedGeometry> attachMicromaps(RTCDevice device, RTCScene scene, const
   for (size_t t = 0; t < mesh.triangleCount; ++t) {
     const int32_t i = a.indices[gm.firstTriangle + t];
     if (i < -4 || (i >= 0 && size_t(i) >= a.descriptors.size()))
-      return makeError(ErrorCode::InvalidArgument, where + ": triangle " + std::to_string(t) + " has a bad index");
+      return makeError(ErrorCode::InvalidArgument,
+                       where + ": triangle " + std::to_string(t) + " has a bad index");
   }
   for (const TriangleDescriptor& d : a.descriptors)
     if (d.subdivisionLevel > kMaxLevel || !isValidFormat(d.format) ||
@@ -291,7 +293,8 @@ Result<AttachedGeometry> attachMicromaps(RTCDevice device, RTCScene scene, const
 
   AttachedGeometry out;
   for (size_t t = 0; t < mesh.triangleCount; ++t) {
-    const int part = detail::partOf(a.indices[gm.firstTriangle + t], source.twoState, options.splitSpecialIndices);
+    const int part =
+        detail::partOf(a.indices[gm.firstTriangle + t], source.twoState, options.splitSpecialIndices);
     if (part == 0) {
       ++out.dropped_;
       continue;
@@ -301,7 +304,8 @@ Result<AttachedGeometry> attachMicromaps(RTCDevice device, RTCScene scene, const
     map.push_back(uint32_t(t));
     idx.insert(idx.end(), mesh.indices + 3 * t, mesh.indices + 3 * t + 3);
   }
-  out.opaqueIndices_.resize(out.opaqueIndices_.size() + 4, 0);  // Embree reads index buffers with 16-byte loads
+  out.opaqueIndices_.resize(out.opaqueIndices_.size() + 4,
+                            0);  // Embree reads index buffers with 16-byte loads
   out.filteredIndices_.resize(out.filteredIndices_.size() + 4, 0);
 
   using Data = detail::FilterData<AlphaTest>;

@@ -25,7 +25,6 @@
 #include <cstdint>
 #include <cstring>
 #include <optional>
-#include "somm/span.h"
 #include <string>
 #include <string_view>
 #include <vector>
@@ -33,6 +32,7 @@
 #include "somm/micromap.h"
 #include "somm/omm_array.h"
 #include "somm/result.h"
+#include "somm/span.h"
 
 #if defined(__BYTE_ORDER__) && __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
 #error "somm encodings assume a little-endian host"
@@ -41,8 +41,9 @@
 namespace somm {
 
 enum class Encoding : uint8_t { Flat = 0, Dfs = 1, DfsFast = 2, Rank = 3, Hybrid = 4, Csm = 5, Sdag = 6 };
-inline constexpr Encoding kAllEncodings[] = {Encoding::Flat,   Encoding::Dfs, Encoding::DfsFast, Encoding::Rank,
-                                             Encoding::Hybrid, Encoding::Csm, Encoding::Sdag};
+inline constexpr Encoding kAllEncodings[] = {Encoding::Flat, Encoding::Dfs,    Encoding::DfsFast,
+                                             Encoding::Rank, Encoding::Hybrid, Encoding::Csm,
+                                             Encoding::Sdag};
 inline constexpr uint32_t kEncodingCount = 7;
 
 // "flat", "dfs", "dfs-fast", "rank", "hybrid", "csm", "sdag".
@@ -132,7 +133,8 @@ constexpr uint64_t rankMapBytes(uint32_t level, Format f, const TreeShape& s) no
 // -march=x86-64-v2 or later), otherwise SWAR (std::popcount / __builtin_popcountll would call libgcc's __popcountdi2 on baseline
 // x86-64).
 inline uint32_t popcount64(uint64_t x) noexcept {
-#if (defined(__GNUC__) || defined(__clang__)) && (defined(__POPCNT__) || !(defined(__x86_64__) || defined(__i386__)))
+#if (defined(__GNUC__) || defined(__clang__)) && \
+    (defined(__POPCNT__) || !(defined(__x86_64__) || defined(__i386__)))
   return uint32_t(__builtin_popcountll(x));
 #else
   x = x - ((x >> 1) & 0x5555555555555555ull);
@@ -143,8 +145,9 @@ inline uint32_t popcount64(uint64_t x) noexcept {
 }
 inline constexpr auto kBytePopcount = [] {
   std::array<uint8_t, 256> t{};
-  for (int b = 0; b < 256; ++b) t[size_t(b)] = uint8_t((b & 1) + (b >> 1 & 1) + (b >> 2 & 1) + (b >> 3 & 1) +
-                                                      (b >> 4 & 1) + (b >> 5 & 1) + (b >> 6 & 1) + (b >> 7 & 1));
+  for (int b = 0; b < 256; ++b)
+    t[size_t(b)] = uint8_t((b & 1) + (b >> 1 & 1) + (b >> 2 & 1) + (b >> 3 & 1) + (b >> 4 & 1) +
+                           (b >> 5 & 1) + (b >> 6 & 1) + (b >> 7 & 1));
   return t;
 }();
 
@@ -323,7 +326,8 @@ inline State packedState(const uint8_t* p, Format f, uint32_t i) noexcept {
 // csm: node = u16 child mask (1 = child present; absent = fully transparent) + one u32 byte offset (into the
 // array's data buffer) per present child in slot order; leaf = 16 states (2 or 4 bytes). Uniform non-transparent
 // subtrees are ordinary (shared) nodes. `data` = the array's data buffer, `offset` = the map's root.
-inline State csmState(const uint8_t* data, uint32_t offset, uint32_t level, Format f, uint32_t index) noexcept {
+inline State csmState(const uint8_t* data, uint32_t offset, uint32_t level, Format f,
+                      uint32_t index) noexcept {
   const uint8_t* p = data + offset;
   if (level <= 1) return getValue(p, 0, f, index);
   uint32_t shift = 2 * level;
@@ -366,8 +370,8 @@ inline const uint8_t* sdagChild(const uint8_t* data, const SdagDirectory& dir, F
   const uint32_t k = sdagRegion(f, height);
   return data + dir.base[k] + (height == 1 ? ref * 2u * bitsPerState(f) : ref);
 }
-inline State sdagState(const uint8_t* data, const SdagDirectory& dir, uint32_t offset, uint32_t level, Format f,
-                       uint32_t index) noexcept {
+inline State sdagState(const uint8_t* data, const SdagDirectory& dir, uint32_t offset, uint32_t level,
+                       Format f, uint32_t index) noexcept {
   const uint8_t* p = data + offset;
   if (level <= 1) return getValue(p, 0, f, index);
   const uint32_t b = bitsPerState(f);
@@ -408,7 +412,8 @@ struct EncodedMapDesc {
   MapKind kind = MapKind::Flat;
   uint8_t reserved = 0;
   friend bool operator==(const EncodedMapDesc& a, const EncodedMapDesc& b) noexcept {
-    return a.offset == b.offset && a.level == b.level && a.format == b.format && a.kind == b.kind && a.reserved == b.reserved;
+    return a.offset == b.offset && a.level == b.level && a.format == b.format && a.kind == b.kind &&
+           a.reserved == b.reserved;
   }
   friend bool operator!=(const EncodedMapDesc& a, const EncodedMapDesc& b) noexcept { return !(a == b); }
 };
@@ -434,7 +439,8 @@ class EncodedArray {
   static Encoding storedEncoding(Encoding e) noexcept { return e == Encoding::DfsFast ? Encoding::Dfs : e; }
   // The same bytes with another lookup: dfs <-> dfs-fast (false, unchanged, for any other pair).
   bool setLookup(Encoding e) noexcept {
-    if (storedEncoding(e) != storedEncoding(encoding_) || storedEncoding(e) != Encoding::Dfs) return e == encoding_;
+    if (storedEncoding(e) != storedEncoding(encoding_) || storedEncoding(e) != Encoding::Dfs)
+      return e == encoding_;
     encoding_ = e;
     return true;
   }
@@ -549,7 +555,8 @@ class EncodedArray {
   static Result<EncodedArray> parse(Span<const uint8_t> bytes, std::string_view what = "encoded array");
 
   friend bool operator==(const EncodedArray& a, const EncodedArray& b) {
-    return a.encoding_ == b.encoding_ && a.indexType_ == b.indexType_ && a.indices_ == b.indices_ && a.maps_ == b.maps_ && a.data_ == b.data_ && a.dataBytes_ == b.dataBytes_ &&
+    return a.encoding_ == b.encoding_ && a.indexType_ == b.indexType_ && a.indices_ == b.indices_ &&
+           a.maps_ == b.maps_ && a.data_ == b.data_ && a.dataBytes_ == b.dataBytes_ &&
            a.hasDirectory_ == b.hasDirectory_ && a.dir_ == b.dir_;
   }
   friend bool operator!=(const EncodedArray& a, const EncodedArray& b) noexcept { return !(a == b); }

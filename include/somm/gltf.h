@@ -51,7 +51,7 @@ Status writeBakeOutput(const std::string& outPath, const std::string& scenePath,
 
 // The micromaps of a glTF, in the scene's geometry numbering (one geometry per mesh primitive, in order).
 struct GltfMicromaps {
-  SceneMicromaps micromaps;             // arrays = root micromaps[] (a primitive without the extension: all -4)
+  SceneMicromaps micromaps;  // arrays = root micromaps[] (a primitive without the extension: all -4)
   std::vector<GeometryInfo> geometries;  // name/material as loadScene; format/levels from the records used;
                                          // cutoff/filter from the extension's extras, else from the material
   std::vector<uint8_t> hasMicromap;      // per geometry: 1 when its primitive carries the extension
@@ -76,7 +76,7 @@ Result<GltfMicromapsRead> parseGltfMicromaps(const std::vector<uint8_t>& bytes, 
 // bench). For a glTF, `file` holds its SceneMicromaps as stored, the per-geometry GeometryInfo, no further encodings
 // (one empty list per array) and sourcePath = the glTF itself (it is the scene, in the same geometry numbering).
 struct MicromapSource {
-  std::string container;  // "somm" or "EXT_mesh_opacity_micromap"
+  std::string container;     // "somm" or "EXT_mesh_opacity_micromap"
   uint32_t sommVersion = 0;  // the .somm container version as stored (0 for a glTF)
   SommFile file;
 };

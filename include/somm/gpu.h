@@ -30,7 +30,8 @@ enum class LookupMode : uint32_t {
 struct Query {
   uint32_t triangle = 0;
   float u = 0.0f, v = 0.0f;
-  uint32_t w = 0;  // StateUV: byte offset of the array from `base`; BirdIndex: the level; StateIndex: the index
+  uint32_t w =
+      0;  // StateUV: byte offset of the array from `base`; BirdIndex: the level; StateIndex: the index
 };
 static_assert(sizeof(Query) == 16, "Query must match the kernel's uvec4");
 
@@ -53,8 +54,9 @@ class Device {
   // BirdIndex). The buffer is
   // uploaded with 16 zero bytes appended (the shaders' 8-byte read-ahead). With repeats > 1 the dispatch
   // runs that many times and *seconds (if given) is the fastest dispatch's wall time (upload excluded).
-  Result<std::vector<uint32_t>> run(ShaderLanguage language, LookupMode mode, const std::vector<uint8_t>& buffer,
-                                    uint32_t base, const std::vector<Query>& queries, uint32_t repeats = 1,
+  Result<std::vector<uint32_t>> run(ShaderLanguage language, LookupMode mode,
+                                    const std::vector<uint8_t>& buffer, uint32_t base,
+                                    const std::vector<Query>& queries, uint32_t repeats = 1,
                                     double* seconds = nullptr);
 
  private:

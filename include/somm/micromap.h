@@ -4,10 +4,10 @@
 
 #include <cstdint>
 #include <optional>
-#include "somm/span.h"
 #include <vector>
 
 #include "somm/bird.h"
+#include "somm/span.h"
 
 namespace somm {
 
@@ -23,13 +23,25 @@ enum class SpecialIndex : int32_t {
   FullyUnknownOpaque = -4,
 };
 
-constexpr int32_t specialIndexFor(State s) noexcept { return -1 - int32_t(s); }
-constexpr bool isSpecialIndex(int32_t index) noexcept { return index >= -4 && index <= -1; }
-constexpr State stateOfSpecialIndex(int32_t index) noexcept { return State(-1 - index); }
+constexpr int32_t specialIndexFor(State s) noexcept {
+  return -1 - int32_t(s);
+}
+constexpr bool isSpecialIndex(int32_t index) noexcept {
+  return index >= -4 && index <= -1;
+}
+constexpr State stateOfSpecialIndex(int32_t index) noexcept {
+  return State(-1 - index);
+}
 
-constexpr uint32_t bitsPerState(Format f) noexcept { return f == Format::TwoState ? 1u : 2u; }
-constexpr bool isKnown(State s) noexcept { return s == State::Transparent || s == State::Opaque; }
-constexpr bool isValidFormat(uint32_t f) noexcept { return f == 1 || f == 2; }
+constexpr uint32_t bitsPerState(Format f) noexcept {
+  return f == Format::TwoState ? 1u : 2u;
+}
+constexpr bool isKnown(State s) noexcept {
+  return s == State::Transparent || s == State::Opaque;
+}
+constexpr bool isValidFormat(uint32_t f) noexcept {
+  return f == 1 || f == 2;
+}
 
 // Bytes of one micromap in the spec layout: max(1, ceil(4^L · bits / 8)).
 constexpr uint32_t micromapDataBytes(uint32_t level, Format f) noexcept {
@@ -39,7 +51,9 @@ constexpr uint32_t micromapDataBytes(uint32_t level, Format f) noexcept {
 }
 
 // The spec's force-2-state demotion: unknown-transparent → transparent, unknown-opaque → opaque.
-constexpr State toTwoState(State s) noexcept { return State(uint8_t(s) & 1u); }
+constexpr State toTwoState(State s) noexcept {
+  return State(uint8_t(s) & 1u);
+}
 
 // Read state `index` from spec-layout bytes (LSB-first within each byte).
 inline State readPackedState(const uint8_t* data, Format f, uint32_t index) noexcept {

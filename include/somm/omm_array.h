@@ -3,10 +3,10 @@
 #pragma once
 
 #include <cstdint>
-#include "somm/span.h"
 #include <vector>
 
 #include "somm/micromap.h"
+#include "somm/span.h"
 
 namespace somm {
 
@@ -18,7 +18,9 @@ struct TriangleDescriptor {
   friend bool operator==(const TriangleDescriptor& a, const TriangleDescriptor& b) noexcept {
     return a.dataOffset == b.dataOffset && a.subdivisionLevel == b.subdivisionLevel && a.format == b.format;
   }
-  friend bool operator!=(const TriangleDescriptor& a, const TriangleDescriptor& b) noexcept { return !(a == b); }
+  friend bool operator!=(const TriangleDescriptor& a, const TriangleDescriptor& b) noexcept {
+    return !(a == b);
+  }
 };
 static_assert(sizeof(TriangleDescriptor) == 8);
 
@@ -37,14 +39,15 @@ enum class IndexType : uint8_t { UInt16 = 2, UInt32 = 4 };
 
 // The spec buffers of one geometry.
 struct OmmArray {
-  std::vector<uint8_t> data;                     // micromaps at their byte offsets
-  std::vector<TriangleDescriptor> descriptors;   // one per unique micromap
-  std::vector<int32_t> indices;                  // per triangle: descriptor index or special index (-1..-4)
+  std::vector<uint8_t> data;                    // micromaps at their byte offsets
+  std::vector<TriangleDescriptor> descriptors;  // one per unique micromap
+  std::vector<int32_t> indices;                 // per triangle: descriptor index or special index (-1..-4)
   // Usage counts per (level, format) with count > 0, sorted by format then level:
-  std::vector<UsageCount> histogram;          // micromaps in the array (for vkCmdBuildMicromapsEXT)
-  std::vector<UsageCount> triangleHistogram;  // triangles referencing them (for the acceleration structure build)
+  std::vector<UsageCount> histogram;  // micromaps in the array (for vkCmdBuildMicromapsEXT)
+  std::vector<UsageCount>
+      triangleHistogram;  // triangles referencing them (for the acceleration structure build)
 
-  IndexType indexType() const noexcept;          // 16-bit when every value fits (as its unsigned cast), else 32-bit
+  IndexType indexType() const noexcept;  // 16-bit when every value fits (as its unsigned cast), else 32-bit
   std::vector<uint8_t> indexBufferBytes() const;  // little-endian index buffer in indexType()
   std::vector<uint8_t> descriptorBytes() const;   // little-endian descriptors, 8 bytes each
 
@@ -110,7 +113,9 @@ struct GeometryMicromaps {
   friend bool operator==(const GeometryMicromaps& a, const GeometryMicromaps& b) noexcept {
     return a.array == b.array && a.firstTriangle == b.firstTriangle && a.triangleCount == b.triangleCount;
   }
-  friend bool operator!=(const GeometryMicromaps& a, const GeometryMicromaps& b) noexcept { return !(a == b); }
+  friend bool operator!=(const GeometryMicromaps& a, const GeometryMicromaps& b) noexcept {
+    return !(a == b);
+  }
 };
 
 struct SceneMicromaps {

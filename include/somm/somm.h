@@ -41,14 +41,14 @@ SOMM_API const char* somm_version(void);
 
 typedef enum somm_result {
   SOMM_OK = 0,
-  SOMM_ERROR_INVALID_ARGUMENT = 1,  /* a parameter or option out of range, inconsistent input */
-  SOMM_ERROR_PARSE = 2,             /* malformed text */
-  SOMM_ERROR_IO = 3,                /* (not used by the C API: it does no I/O) */
-  SOMM_ERROR_CORRUPT = 4,           /* serialized bytes truncated or inconsistent */
-  SOMM_ERROR_UNSUPPORTED = 5,       /* unknown version or feature */
-  SOMM_ERROR_LIMIT_EXCEEDED = 6,    /* sizes beyond what the library is willing to allocate */
-  SOMM_ERROR_BUFFER_TOO_SMALL = 7,  /* a caller buffer is smaller than the size query said */
-  SOMM_ERROR_CANCELLED = 8,         /* the progress callback asked to stop */
+  SOMM_ERROR_INVALID_ARGUMENT = 1, /* a parameter or option out of range, inconsistent input */
+  SOMM_ERROR_PARSE = 2,            /* malformed text */
+  SOMM_ERROR_IO = 3,               /* (not used by the C API: it does no I/O) */
+  SOMM_ERROR_CORRUPT = 4,          /* serialized bytes truncated or inconsistent */
+  SOMM_ERROR_UNSUPPORTED = 5,      /* unknown version or feature */
+  SOMM_ERROR_LIMIT_EXCEEDED = 6,   /* sizes beyond what the library is willing to allocate */
+  SOMM_ERROR_BUFFER_TOO_SMALL = 7, /* a caller buffer is smaller than the size query said */
+  SOMM_ERROR_CANCELLED = 8,        /* the progress callback asked to stop */
   SOMM_ERROR_OUT_OF_MEMORY = 9,
   SOMM_ERROR_INTERNAL = 10
 } somm_result;
@@ -80,7 +80,11 @@ typedef enum somm_format { SOMM_FORMAT_2_STATE = 1, SOMM_FORMAT_4_STATE = 2 } so
 #define SOMM_SPECIAL_INDEX_FULLY_UNKNOWN_OPAQUE (-4)
 
 /* Index buffer element types (values = bytes per index). NONE: non-indexed, triangle t uses vertices 3t..3t+2. */
-typedef enum somm_index_type { SOMM_INDEX_NONE = 0, SOMM_INDEX_UINT16 = 2, SOMM_INDEX_UINT32 = 4 } somm_index_type;
+typedef enum somm_index_type {
+  SOMM_INDEX_NONE = 0,
+  SOMM_INDEX_UINT16 = 2,
+  SOMM_INDEX_UINT32 = 4
+} somm_index_type;
 
 /* VkMicromapUsageEXT / D3D12_RAYTRACING_OPACITY_MICROMAP_HISTOGRAM_ENTRY-compatible (12 bytes). */
 typedef struct somm_usage_count {
@@ -105,15 +109,19 @@ typedef enum somm_texel_format {
  * become alpha v / (2^bits − 1). */
 typedef struct somm_texture {
   const void* data;
-  size_t size;        /* bytes readable at data: at least (height − 1)·row_pitch + width·texel_size */
+  size_t size; /* bytes readable at data: at least (height − 1)·row_pitch + width·texel_size */
   uint32_t width, height;
-  size_t row_pitch;   /* bytes from one row to the next; 0 = width·texel_size */
+  size_t row_pitch; /* bytes from one row to the next; 0 = width·texel_size */
   somm_texel_format format;
   uint32_t alpha_channel; /* which channel holds alpha: 0..channels−1 (default: the last one) */
 } somm_texture;
 
 typedef enum somm_filter { SOMM_FILTER_NEAREST = 0, SOMM_FILTER_LINEAR = 1 } somm_filter;
-typedef enum somm_wrap { SOMM_WRAP_REPEAT = 0, SOMM_WRAP_CLAMP_TO_EDGE = 1, SOMM_WRAP_MIRRORED_REPEAT = 2 } somm_wrap;
+typedef enum somm_wrap {
+  SOMM_WRAP_REPEAT = 0,
+  SOMM_WRAP_CLAMP_TO_EDGE = 1,
+  SOMM_WRAP_MIRRORED_REPEAT = 2
+} somm_wrap;
 
 /* The sampler the renderer's alpha test uses (the bake is conservative against exactly this). */
 typedef struct somm_sampler {
@@ -130,21 +138,21 @@ typedef enum somm_alpha_mode {
 
 typedef struct somm_material {
   somm_alpha_mode alpha_mode;
-  float cutoff;                 /* MASK: opaque where alpha >= cutoff, in [0, 1] */
-  const somm_texture* texture;  /* NULL: the constant alpha below everywhere */
-  float constant_alpha;         /* with texture == NULL */
+  float cutoff;                /* MASK: opaque where alpha >= cutoff, in [0, 1] */
+  const somm_texture* texture; /* NULL: the constant alpha below everywhere */
+  float constant_alpha;        /* with texture == NULL */
   somm_sampler sampler;
 } somm_material;
 
 /* One geometry: UVs as strided float pairs, an optional 16/32-bit index buffer, a material. */
 typedef struct somm_geometry {
-  const float* uvs;        /* (u, v) of vertex i at (const char*)uvs + i·uv_stride */
-  size_t uv_stride;        /* bytes; 0 = 2·sizeof(float) */
+  const float* uvs; /* (u, v) of vertex i at (const char*)uvs + i·uv_stride */
+  size_t uv_stride; /* bytes; 0 = 2·sizeof(float) */
   uint32_t vertex_count;
-  const void* indices;     /* 3 per triangle, of index_type; NULL with SOMM_INDEX_NONE */
+  const void* indices; /* 3 per triangle, of index_type; NULL with SOMM_INDEX_NONE */
   somm_index_type index_type;
   uint32_t triangle_count;
-  uint32_t material;       /* index into somm_bake_input.materials */
+  uint32_t material; /* index into somm_bake_input.materials */
 } somm_geometry;
 
 typedef struct somm_bake_input {
@@ -161,12 +169,14 @@ typedef enum somm_unknown_as {
 } somm_unknown_as;
 
 typedef enum somm_blend_policy {
-  SOMM_BLEND_UNKNOWN = 0, /* BLEND triangles get the special index fully-unknown-opaque: the any-hit shader decides */
-  SOMM_BLEND_AS_MASK = 1  /* bake BLEND materials as MASK with their cutoff */
+  SOMM_BLEND_UNKNOWN =
+      0, /* BLEND triangles get the special index fully-unknown-opaque: the any-hit shader decides */
+  SOMM_BLEND_AS_MASK = 1 /* bake BLEND materials as MASK with their cutoff */
 } somm_blend_policy;
 
 typedef enum somm_array_layout {
-  SOMM_ARRAY_PER_SCENE = 0,   /* one array shared by all geometries, identical micromaps stored once (the default,
+  SOMM_ARRAY_PER_SCENE =
+      0, /* one array shared by all geometries, identical micromaps stored once (the default,
                                  as `somm bake`) */
   SOMM_ARRAY_PER_GEOMETRY = 1 /* one OMM array per geometry (`somm bake --arrays geometry`) */
 } somm_array_layout;
@@ -176,25 +186,26 @@ typedef enum somm_array_layout {
 typedef int (*somm_progress_fn)(double fraction, void* user);
 
 typedef struct somm_bake_options {
-  uint32_t level;                   /* fixed subdivision level 0..12 (default 6), when texels_per_micro_triangle == 0 */
-  uint32_t max_level;               /* adaptive: the cap 0..12 */
-  float texels_per_micro_triangle;  /* adaptive (> 0): per triangle the smallest level whose micro-triangles cover
+  uint32_t level;     /* fixed subdivision level 0..12 (default 6), when texels_per_micro_triangle == 0 */
+  uint32_t max_level; /* adaptive: the cap 0..12 */
+  float
+      texels_per_micro_triangle; /* adaptive (> 0): per triangle the smallest level whose micro-triangles cover
                                        at most this many texels, capped at max_level */
-  somm_format format;               /* default 4-state */
-  somm_unknown_as unknown_as;       /* 2-state only */
-  uint64_t max_bytes;               /* scene-wide budget of micromap data bytes (0 = none): the highest levels are
+  somm_format format;            /* default 4-state */
+  somm_unknown_as unknown_as;    /* 2-state only */
+  uint64_t max_bytes; /* scene-wide budget of micromap data bytes (0 = none): the highest levels are
                                        lowered, scene-wide, until the data of all geometries fits */
   somm_blend_policy blend;
   somm_array_layout layout;
-  uint32_t threads;                 /* 0 = all hardware threads; results are identical for every count */
-  somm_progress_fn progress;        /* may be NULL */
+  uint32_t threads;          /* 0 = all hardware threads; results are identical for every count */
+  somm_progress_fn progress; /* may be NULL */
   void* progress_user;
 } somm_bake_options;
 
-SOMM_API somm_texture somm_texture_default(void);    /* RGBA8, alpha channel 3, everything else 0 */
-SOMM_API somm_sampler somm_sampler_default(void);    /* linear, repeat, repeat */
-SOMM_API somm_material somm_material_default(void);  /* MASK, cutoff 0.5, no texture, constant alpha 1 */
-SOMM_API somm_geometry somm_geometry_default(void);  /* no data, 32-bit indices, tight UVs, material 0 */
+SOMM_API somm_texture somm_texture_default(void);   /* RGBA8, alpha channel 3, everything else 0 */
+SOMM_API somm_sampler somm_sampler_default(void);   /* linear, repeat, repeat */
+SOMM_API somm_material somm_material_default(void); /* MASK, cutoff 0.5, no texture, constant alpha 1 */
+SOMM_API somm_geometry somm_geometry_default(void); /* no data, 32-bit indices, tight UVs, material 0 */
 SOMM_API somm_bake_options somm_bake_options_default(void); /* level 6, 4-state, majority, no budget, BLEND
                                                                unknown, one scene-wide array, all threads */
 
@@ -210,10 +221,11 @@ SOMM_API void somm_bake_result_destroy(somm_bake_result* result); /* NULL is ign
 /* The sizes of one OMM array's buffers (one VkMicromapEXT / DXR OMM array): allocate these, then
  * somm_bake_result_copy_array. */
 typedef struct somm_array_info {
-  uint64_t data_size;         /* bytes: micromap data (VkMicromapBuildInfoEXT::data) */
-  uint32_t triangle_count;    /* records of 8 bytes (VkMicromapTriangleEXT): triangleArray, stride 8 */
-  uint32_t usage_count_count; /* entries of the micromap usage histogram (VkMicromapBuildInfoEXT::pUsageCounts) */
-  uint32_t geometry_count;    /* geometries whose index buffers point into this array */
+  uint64_t data_size;      /* bytes: micromap data (VkMicromapBuildInfoEXT::data) */
+  uint32_t triangle_count; /* records of 8 bytes (VkMicromapTriangleEXT): triangleArray, stride 8 */
+  uint32_t
+      usage_count_count; /* entries of the micromap usage histogram (VkMicromapBuildInfoEXT::pUsageCounts) */
+  uint32_t geometry_count; /* geometries whose index buffers point into this array */
 } somm_array_info;
 
 /* Caller-owned destinations; a NULL pointer skips that buffer. Capacities in bytes (usage counts: entries). */
@@ -231,12 +243,12 @@ typedef struct somm_array_buffers {
  * found. */
 typedef struct somm_geometry_info {
   uint32_t array;
-  uint32_t triangle_count;      /* = index count */
-  somm_index_type index_type;   /* UINT16 when every non-special index fits (<= 0xFFFB), else UINT32 */
-  uint64_t index_size;          /* bytes: triangle_count · index_type */
-  uint32_t usage_count_count;   /* entries of this geometry's triangle usage histogram (for its BLAS build) */
-  uint64_t special_count[4];    /* triangles with a special index, by somm_state */
-  uint64_t micro_triangles;     /* Σ 4^level */
+  uint32_t triangle_count;    /* = index count */
+  somm_index_type index_type; /* UINT16 when every non-special index fits (<= 0xFFFB), else UINT32 */
+  uint64_t index_size;        /* bytes: triangle_count · index_type */
+  uint32_t usage_count_count; /* entries of this geometry's triangle usage histogram (for its BLAS build) */
+  uint64_t special_count[4];  /* triangles with a special index, by somm_state */
+  uint64_t micro_triangles;   /* Σ 4^level */
   uint64_t unknown_micro_triangles;
   uint64_t non_finite_uv_triangles;
   uint32_t min_level, max_level;
@@ -254,8 +266,8 @@ SOMM_API uint32_t somm_bake_result_geometry_count(const somm_bake_result* result
 SOMM_API somm_format somm_bake_result_format(const somm_bake_result* result);
 /* The scene-wide level cap the byte budget applied (12 = none). */
 SOMM_API uint32_t somm_bake_result_level_cap(const somm_bake_result* result);
-SOMM_API somm_result somm_bake_result_array_info(const somm_bake_result* result, uint32_t array, somm_array_info* info,
-                                                 somm_error* error);
+SOMM_API somm_result somm_bake_result_array_info(const somm_bake_result* result, uint32_t array,
+                                                 somm_array_info* info, somm_error* error);
 SOMM_API somm_result somm_bake_result_copy_array(const somm_bake_result* result, uint32_t array,
                                                  const somm_array_buffers* buffers, somm_error* error);
 SOMM_API somm_result somm_bake_result_geometry_info(const somm_bake_result* result, uint32_t geometry,
@@ -277,9 +289,9 @@ typedef enum somm_encoding {
 typedef struct somm_flat_array {
   const void* data;
   uint64_t data_size;
-  const void* triangles;     /* 8-byte records */
+  const void* triangles; /* 8-byte records */
   uint32_t triangle_count;
-  const void* indices;       /* index_count values of index_type (special indices −1..−4) */
+  const void* indices; /* index_count values of index_type (special indices −1..−4) */
   somm_index_type index_type;
   uint32_t index_count;
 } somm_flat_array;
@@ -301,13 +313,14 @@ SOMM_API uint32_t somm_encoded_array_triangle_count(const somm_encoded_array* ar
 SOMM_API uint32_t somm_encoded_array_map_count(const somm_encoded_array* array);
 /* Bytes of the serialized form (= what a GPU needs for random access into this encoding). */
 SOMM_API uint64_t somm_encoded_array_serialized_size(const somm_encoded_array* array);
-SOMM_API somm_result somm_encoded_array_serialize(const somm_encoded_array* array, void* bytes, uint64_t capacity,
-                                                  somm_error* error);
+SOMM_API somm_result somm_encoded_array_serialize(const somm_encoded_array* array, void* bytes,
+                                                  uint64_t capacity, somm_error* error);
 /* State of micro-triangle `index` (bird-curve order) of `triangle`, special indices resolved: 0..3 (somm_state),
  * or −1 when triangle or index is out of range. */
 SOMM_API int somm_encoded_array_state(const somm_encoded_array* array, uint32_t triangle, uint32_t index);
 /* The same at barycentrics (u, v) of vertices 1 and 2 (exactly the hardware's micro-triangle choice). */
-SOMM_API int somm_encoded_array_state_uv(const somm_encoded_array* array, uint32_t triangle, float u, float v);
+SOMM_API int somm_encoded_array_state_uv(const somm_encoded_array* array, uint32_t triangle, float u,
+                                         float v);
 /* Subdivision level of the triangle's micromap (0 for a special index), or −1 when out of range. */
 SOMM_API int somm_encoded_array_level(const somm_encoded_array* array, uint32_t triangle);
 

@@ -4,7 +4,6 @@
 #pragma once
 
 #include <cstdint>
-#include "somm/span.h"
 #include <string>
 #include <string_view>
 #include <utility>
@@ -13,6 +12,7 @@
 #include "somm/micromap.h"
 #include "somm/omm_array.h"
 #include "somm/result.h"
+#include "somm/span.h"
 #include "somm/texture.h"
 
 namespace somm {
@@ -48,9 +48,12 @@ struct GeometryBakeStats {
       0;                            // of which the classification left unknown (before any 2-state demotion)
   uint64_t invalidUvTriangles = 0;  // triangles with NaN/inf UVs (classified unknown)
   friend bool operator==(const GeometryBakeStats& a, const GeometryBakeStats& b) noexcept {
-    return a.microTriangles == b.microTriangles && a.unknownMicroTriangles == b.unknownMicroTriangles && a.invalidUvTriangles == b.invalidUvTriangles;
+    return a.microTriangles == b.microTriangles && a.unknownMicroTriangles == b.unknownMicroTriangles &&
+           a.invalidUvTriangles == b.invalidUvTriangles;
   }
-  friend bool operator!=(const GeometryBakeStats& a, const GeometryBakeStats& b) noexcept { return !(a == b); }
+  friend bool operator!=(const GeometryBakeStats& a, const GeometryBakeStats& b) noexcept {
+    return !(a == b);
+  }
 };
 
 // Per-geometry metadata.
@@ -65,7 +68,9 @@ struct GeometryInfo {
   Sampler sampler;  // filter and wrap modes used by the bake
   GeometryBakeStats stats;
   friend bool operator==(const GeometryInfo& a, const GeometryInfo& b) {
-    return a.name == b.name && a.material == b.material && a.triangleCount == b.triangleCount && a.format == b.format && a.minLevel == b.minLevel && a.maxLevel == b.maxLevel && a.cutoff == b.cutoff && a.sampler == b.sampler && a.stats == b.stats;
+    return a.name == b.name && a.material == b.material && a.triangleCount == b.triangleCount &&
+           a.format == b.format && a.minLevel == b.minLevel && a.maxLevel == b.maxLevel &&
+           a.cutoff == b.cutoff && a.sampler == b.sampler && a.stats == b.stats;
   }
   friend bool operator!=(const GeometryInfo& a, const GeometryInfo& b) noexcept { return !(a == b); }
 };

@@ -21,13 +21,13 @@ class Span {
 
   constexpr Span() noexcept = default;
   constexpr Span(T* data, std::size_t size) noexcept : data_(data), size_(size) {}
-  template <class C,
-            class P = decltype(std::declval<C&>().data()),
+  template <class C, class P = decltype(std::declval<C&>().data()),
             class = std::enable_if_t<std::is_convertible_v<P, T*> &&
                                      std::is_same_v<std::remove_cv_t<std::remove_pointer_t<P>>, value_type> &&
                                      !std::is_same_v<std::remove_cv_t<std::remove_reference_t<C>>, Span>>,
             class = decltype(std::declval<C&>().size())>
-  constexpr Span(C&& c) noexcept : data_(c.data()), size_(std::size_t(c.size())) {}  // NOLINT(google-explicit-constructor)
+  constexpr Span(C&& c) noexcept
+      : data_(c.data()), size_(std::size_t(c.size())) {}  // NOLINT(google-explicit-constructor)
   template <std::size_t N>
   constexpr Span(T (&a)[N]) noexcept : data_(a), size_(N) {}  // NOLINT(google-explicit-constructor)
 

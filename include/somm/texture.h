@@ -32,7 +32,9 @@ struct AlphaTexture {
 };
 
 // Names used in CLI output and JSON.
-constexpr const char* filterName(Filter f) noexcept { return f == Filter::Nearest ? "nearest" : "linear"; }
+constexpr const char* filterName(Filter f) noexcept {
+  return f == Filter::Nearest ? "nearest" : "linear";
+}
 constexpr const char* wrapName(Wrap w) noexcept {
   return w == Wrap::Repeat ? "repeat" : w == Wrap::ClampToEdge ? "clamp" : "mirror";
 }
@@ -84,6 +86,8 @@ inline float sampleAlpha(const AlphaTexture& tex, const Sampler& smp, float s, f
 }
 
 // The alpha test (glTF MASK): opaque when alpha >= cutoff.
-inline bool alphaTestPasses(float alpha, float cutoff) noexcept { return alpha >= cutoff; }
+inline bool alphaTestPasses(float alpha, float cutoff) noexcept {
+  return alpha >= cutoff;
+}
 
 }  // namespace somm

@@ -170,8 +170,8 @@ Result<std::unique_ptr<Tracer>> makeBitmaskTracer(std::shared_ptr<const TraceWor
 // selects the method: TwoState never samples the texture (bit 0 of the state decides), FourState tests the
 // texture on unknown states. Micromaps of geometries that are not alpha-tested are ignored.
 Result<std::unique_ptr<Tracer>> makeFlatOmmTracer(std::shared_ptr<const TraceWorld> world,
-                                                  std::shared_ptr<const SceneMicromaps> micromaps, Format format,
-                                                  bool splitSpecialIndices = true);
+                                                  std::shared_ptr<const SceneMicromaps> micromaps,
+                                                  Format format, bool splitSpecialIndices = true);
 // Traced like omm4-flat; visible hits are coloured by the state their micromap gives them.
 Result<std::unique_ptr<Tracer>> makeStateOverlayTracer(std::shared_ptr<const TraceWorld> world,
                                                        std::shared_ptr<const SceneMicromaps> micromaps);

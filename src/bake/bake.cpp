@@ -447,7 +447,8 @@ struct TriangleClassifier {
     const double cX[4][3] = {{ax, abx, acx}, {acx, bcx, abx}, {abx, bx, bcx}, {bcx, acx, cx}};
     const double cY[4][3] = {{ay, aby, acy}, {acy, bcy, aby}, {aby, by, bcy}, {bcy, acy, cy}};
     if (depth + 1 == level) return leaves(cX, cY, prefix);
-    for (uint32_t c = 0; c < 4; ++c) node(cX[c], cY[c], depth + 1, prefix * 4 + c, region(cX[c], cY[c], kNodeCells));
+    for (uint32_t c = 0; c < 4; ++c)
+      node(cX[c], cY[c], depth + 1, prefix * 4 + c, region(cX[c], cY[c], kNodeCells));
   }
 };
 
@@ -475,8 +476,8 @@ struct Prepared {
   bool usable = true;
 };
 
-void prepare(const AlphaMask& mask, std::array<float, 2> uv0, std::array<float, 2> uv1, std::array<float, 2> uv2,
-             Prepared& p) noexcept {
+void prepare(const AlphaMask& mask, std::array<float, 2> uv0, std::array<float, 2> uv1,
+             std::array<float, 2> uv2, Prepared& p) noexcept {
   const double W = mask.width(), H = mask.height();
   p.X[0] = double(uv0[0]) * W, p.X[1] = double(uv1[0]) * W, p.X[2] = double(uv2[0]) * W;
   p.Y[0] = double(uv0[1]) * H, p.Y[1] = double(uv1[1]) * H, p.Y[2] = double(uv2[1]) * H;
@@ -485,7 +486,8 @@ void prepare(const AlphaMask& mask, std::array<float, 2> uv0, std::array<float, 
   p.usable = true;
   for (int k = 0; k < 3; ++k)
     p.usable = p.usable && std::fabs(p.X[k]) < kMaxTexelCoord && std::fabs(p.Y[k]) < kMaxTexelCoord;
-  p.usable = p.usable && max3(p.X) - min3(p.X) <= kAbsurdRepeats * W && max3(p.Y) - min3(p.Y) <= kAbsurdRepeats * H;
+  p.usable =
+      p.usable && max3(p.X) - min3(p.X) <= kAbsurdRepeats * W && max3(p.Y) - min3(p.Y) <= kAbsurdRepeats * H;
   p.margin = p.usable ? bakeMarginTexels(p.X, p.Y) : 0.0;
 }
 
@@ -545,9 +547,13 @@ void bakeOne(const AlphaMask& mask, std::array<float, 2> uv0, std::array<float, 
   classify(mask, p, level, format, unknownAs, out);
 }
 
-std::string quoted(const char* name) { return name && *name ? " '" + std::string(name) + "'" : std::string(); }
+std::string quoted(const char* name) {
+  return name && *name ? " '" + std::string(name) + "'" : std::string();
+}
 
-std::string geometryName(uint32_t g, const GeometryInput& in) { return "geometry " + std::to_string(g) + quoted(in.name); }
+std::string geometryName(uint32_t g, const GeometryInput& in) {
+  return "geometry " + std::to_string(g) + quoted(in.name);
+}
 
 std::string materialName(uint32_t m, const MaterialInput& in) {
   return in.name && *in.name ? "material '" + std::string(in.name) + "'" : "material " + std::to_string(m);
@@ -578,7 +584,8 @@ struct GeometryReader {
   }
   std::array<float, 2> uv(uint32_t vertex) const noexcept {
     std::array<float, 2> r;
-    std::memcpy(r.data(), reinterpret_cast<const uint8_t*>(g.uvs) + size_t(vertex) * stride(), 2 * sizeof(float));
+    std::memcpy(r.data(), reinterpret_cast<const uint8_t*>(g.uvs) + size_t(vertex) * stride(),
+                2 * sizeof(float));
     return r;
   }
   std::array<float, 2> corner(uint32_t t, int k) const noexcept { return uv(vertex(t, k)); }
@@ -613,8 +620,9 @@ Status validateGeometryInput(uint32_t gi, const GeometryInput& g, uint32_t mater
   for (uint32_t t = 0; t < g.triangleCount; ++t)
     for (int k = 0; k < 3; ++k)
       if (const uint32_t v = r.vertex(t, k); v >= g.vertexCount)
-        return makeError(ErrorCode::InvalidArgument, name + ": index " + std::to_string(v) + " out of range (" +
-                                                         std::to_string(g.vertexCount) + " vertices with UVs)");
+        return makeError(ErrorCode::InvalidArgument, name + ": index " + std::to_string(v) +
+                                                         " out of range (" + std::to_string(g.vertexCount) +
+                                                         " vertices with UVs)");
   return Ok{};
 }
 
@@ -701,8 +709,8 @@ constexpr uint32_t kSpecialBit = 0x80000000u, kNonFiniteBit = 0x40000000u, kAllU
 struct MaterialPlan {
   const AlphaMask* mask = nullptr;  // textured and alpha-tested
   uint32_t maskId = 0;
-  State state = State::Opaque;      // when not textured
-  bool allUnknown = false;          // BLEND as unknown: counts as unknown micro-triangles
+  State state = State::Opaque;  // when not textured
+  bool allUnknown = false;      // BLEND as unknown: counts as unknown micro-triangles
 };
 
 struct CoreInputs {
@@ -873,7 +881,8 @@ Status bakePass(const CoreInputs& ci, const std::vector<std::vector<uint8_t>>& l
   while (j0 < nj) {
     uint32_t j1 = j0;
     uint64_t bytes = 0;
-    while (j1 < nj && j1 - j0 < 4096 && bytes < (uint64_t(64) << 20)) bytes += micromapDataBytes(jobs[j1++].level, o.format);
+    while (j1 < nj && j1 - j0 < 4096 && bytes < (uint64_t(64) << 20))
+      bytes += micromapDataBytes(jobs[j1++].level, o.format);
     if (slots.size() < j1 - j0) slots.resize(j1 - j0);  // maps are kept for reuse by the next chunk
     arena.execute([&] {
       tbb::parallel_for(tbb::blocked_range<uint32_t>(j0, j1, 4), [&](const tbb::blocked_range<uint32_t>& r) {
@@ -972,8 +981,9 @@ Result<SceneBake> bakeCore(const CoreInputs& ci, const BakeOptions& o) {
     if (plan.mask && o.texelsPerMicroTri > 0) {
       const GeometryReader r{gi};
       for (uint32_t t = 0; t < gi.triangleCount; ++t)
-        levels[g][t] = uint8_t(adaptiveLevel(r.corner(t, 0), r.corner(t, 1), r.corner(t, 2), plan.mask->width(),
-                                             plan.mask->height(), o.texelsPerMicroTri, o.maxLevel));
+        levels[g][t] =
+            uint8_t(adaptiveLevel(r.corner(t, 0), r.corner(t, 1), r.corner(t, 2), plan.mask->width(),
+                                  plan.mask->height(), o.texelsPerMicroTri, o.maxLevel));
     }
     for (uint8_t l : levels[g]) top = std::max<uint32_t>(top, l);
   }
@@ -1079,10 +1089,9 @@ Status validateTexture(const TextureView& t) {
                                                      " is out of range for " + texelFormatName(t.format));
   const uint64_t row = uint64_t(t.width) * texelBytes(t.format);
   if (t.rowPitch != 0 && t.rowPitch < row)
-    return makeError(ErrorCode::InvalidArgument, name + ": row pitch " + std::to_string(t.rowPitch) +
-                                                     " is less than width * " +
-                                                     std::to_string(texelBytes(t.format)) + " = " +
-                                                     std::to_string(row));
+    return makeError(ErrorCode::InvalidArgument,
+                     name + ": row pitch " + std::to_string(t.rowPitch) + " is less than width * " +
+                         std::to_string(texelBytes(t.format)) + " = " + std::to_string(row));
   return Ok{};
 }
 
@@ -1165,7 +1174,8 @@ State classifyRegion(const AlphaMask& mask, std::array<float, 2> uv0, std::array
 
 Status validateBakeOptions(const BakeOptions& o) {
   if (o.level > kMaxLevel)
-    return makeError(ErrorCode::InvalidArgument, "level " + std::to_string(o.level) + " is out of range (0..12)");
+    return makeError(ErrorCode::InvalidArgument,
+                     "level " + std::to_string(o.level) + " is out of range (0..12)");
   if (o.maxLevel > kMaxLevel)
     return makeError(ErrorCode::InvalidArgument,
                      "maxLevel " + std::to_string(o.maxLevel) + " is out of range (0..12)");
@@ -1173,7 +1183,8 @@ Status validateBakeOptions(const BakeOptions& o) {
     return makeError(ErrorCode::InvalidArgument, "texelsPerMicroTri must be a finite number >= 0");
   if (!isValidFormat(uint32_t(o.format)))
     return makeError(ErrorCode::InvalidArgument, "format must be 2-state (1) or 4-state (2)");
-  if (o.cutoff && !std::isfinite(*o.cutoff)) return makeError(ErrorCode::InvalidArgument, "cutoff must be finite");
+  if (o.cutoff && !std::isfinite(*o.cutoff))
+    return makeError(ErrorCode::InvalidArgument, "cutoff must be finite");
   if (uint8_t(o.unknownAs) > 2) return makeError(ErrorCode::InvalidArgument, "unknownAs is invalid");
   if (uint8_t(o.blend) > 3) return makeError(ErrorCode::InvalidArgument, "blend is invalid");
   if (uint8_t(o.layout) > 1) return makeError(ErrorCode::InvalidArgument, "layout is invalid");
@@ -1212,9 +1223,10 @@ Result<SceneBake> bakeScene(const BakeInputs& in, const BakeOptions& o) {
     if (mode == MaterialAlpha::Blend && used[m]) {
       switch (o.blend) {
         case BlendAs::Error:
-          return makeError(ErrorCode::InvalidArgument,
-                           materialName(m, mi) +
-                               " has alpha mode BLEND: say how to bake it (blend as unknown, mask or opaque)");
+          return makeError(
+              ErrorCode::InvalidArgument,
+              materialName(m, mi) +
+                  " has alpha mode BLEND: say how to bake it (blend as unknown, mask or opaque)");
         case BlendAs::Unknown:
           plan.state = State::UnknownOpaque;
           plan.allUnknown = true;
@@ -1361,9 +1373,10 @@ Result<BakedGeometry> bakeGeometry(const Geometry& geometry, const Material& mat
     plan.mask = mask;
   } else if (material.alphaMode != AlphaMode::Opaque) {
     // A constant alpha: one state for every point of every triangle.
-    plan.state = alphaTestPasses(material.baseColorFactor[3], options.cutoff ? *options.cutoff : material.alphaCutoff)
-                     ? State::Opaque
-                     : State::Transparent;
+    plan.state =
+        alphaTestPasses(material.baseColorFactor[3], options.cutoff ? *options.cutoff : material.alphaCutoff)
+            ? State::Opaque
+            : State::Transparent;
   }
   BakeOptions o = options;
   o.layout = ArrayLayout::SceneWide;
@@ -1398,9 +1411,9 @@ Result<BakeEstimate> estimateBake(const Geometry& geometry, const Material& mate
   const size_t vertices = geometry.uvs.size() / 2;
   for (uint32_t i : geometry.indices)
     if (i >= vertices)
-      return makeError(ErrorCode::InvalidArgument, "geometry '" + geometry.name + "': index " + std::to_string(i) +
-                                                       " out of range (" + std::to_string(vertices) +
-                                                       " vertices with UVs)");
+      return makeError(ErrorCode::InvalidArgument, "geometry '" + geometry.name + "': index " +
+                                                       std::to_string(i) + " out of range (" +
+                                                       std::to_string(vertices) + " vertices with UVs)");
   const AlphaTexture& tex = *material.alpha;
   auto uvOf = [&](uint32_t v) {
     return std::array<float, 2>{geometry.uvs[2 * size_t(v)], geometry.uvs[2 * size_t(v) + 1]};

@@ -88,7 +88,7 @@ __attribute__((always_inline)) inline void batchKernel(const float* __restrict u
     // su, sv are in [0, n]; su >> level is 1 exactly when su == n.
     uint32_t iu = uint32_t(su) - (uint32_t(su) >> level);
     const uint32_t iv = uint32_t(sv) - (uint32_t(sv) >> level);
-    const uint32_t iuv = iu + iv;  // < 2n
+    const uint32_t iuv = iu + iv;                  // < 2n
     const uint32_t outside = 0u - (iuv >> level);  // all ones when iuv >= n
     iu -= (iuv - mask) & outside;
     const uint32_t belowDiagonal = uint32_t(int32_t(iuv - mask) >> 31) & 1u;  // iuv < n - 1
@@ -129,8 +129,8 @@ __attribute__((target("avx512f,avx512vl,avx512bw,avx512dq,avx2,bmi,bmi2,popcnt")
 BatchIsa detectIsa() noexcept {
 #ifdef SOMM_HAVE_X86_CLONES
   __builtin_cpu_init();
-  if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512bw") &&
-      __builtin_cpu_supports("avx512dq"))
+  if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
+      __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512dq"))
     return BatchIsa::Avx512;
   if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("bmi2")) return BatchIsa::Avx2;
 #endif
@@ -148,11 +148,19 @@ void baryToIndexBatch(BatchIsa isa, const float* u, const float* v, size_t count
                       uint32_t* out) noexcept {
   switch (isa) {
 #ifdef SOMM_HAVE_X86_CLONES
-    case BatchIsa::Avx512: batchAvx512(u, v, count, level, out); return;
-    case BatchIsa::Avx2: batchAvx2(u, v, count, level, out); return;
+    case BatchIsa::Avx512:
+      batchAvx512(u, v, count, level, out);
+      return;
+    case BatchIsa::Avx2:
+      batchAvx2(u, v, count, level, out);
+      return;
 #endif
-    case BatchIsa::Sse2: batchBaseline(u, v, count, level, out); return;
-    default: batchScalar(u, v, count, level, out); return;
+    case BatchIsa::Sse2:
+      batchBaseline(u, v, count, level, out);
+      return;
+    default:
+      batchScalar(u, v, count, level, out);
+      return;
   }
 }
 
@@ -163,14 +171,20 @@ void baryToIndexBatch(const float* u, const float* v, size_t count, uint32_t lev
 
 const char* batchIsaName(BatchIsa isa) noexcept {
   switch (isa) {
-    case BatchIsa::Scalar: return "scalar";
-    case BatchIsa::Sse2: return "sse2";
-    case BatchIsa::Avx2: return "avx2";
-    case BatchIsa::Avx512: return "avx512";
+    case BatchIsa::Scalar:
+      return "scalar";
+    case BatchIsa::Sse2:
+      return "sse2";
+    case BatchIsa::Avx2:
+      return "avx2";
+    case BatchIsa::Avx512:
+      return "avx512";
   }
   return "?";
 }
 
-const char* baryToIndexBatchIsa() noexcept { return batchIsaName(detectIsa()); }
+const char* baryToIndexBatchIsa() noexcept {
+  return batchIsaName(detectIsa());
+}
 
 }  // namespace somm

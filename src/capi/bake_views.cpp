@@ -16,24 +16,38 @@
 namespace somm::capi {
 namespace {
 
-Error invalid(const std::string& m) { return makeError(ErrorCode::InvalidArgument, m); }
+Error invalid(const std::string& m) {
+  return makeError(ErrorCode::InvalidArgument, m);
+}
 
 uint32_t texelBytes(somm_texel_format f) {
   switch (f) {
-    case SOMM_TEXEL_R8: return 1;
-    case SOMM_TEXEL_RG8: return 2;
-    case SOMM_TEXEL_RGBA8: return 4;
-    case SOMM_TEXEL_R16: return 2;
-    case SOMM_TEXEL_RGBA16: return 8;
-    case SOMM_TEXEL_R32F: return 4;
+    case SOMM_TEXEL_R8:
+      return 1;
+    case SOMM_TEXEL_RG8:
+      return 2;
+    case SOMM_TEXEL_RGBA8:
+      return 4;
+    case SOMM_TEXEL_R16:
+      return 2;
+    case SOMM_TEXEL_RGBA16:
+      return 8;
+    case SOMM_TEXEL_R32F:
+      return 4;
   }
   return 0;
 }
 uint32_t channels(somm_texel_format f) {
   switch (f) {
-    case SOMM_TEXEL_R8: case SOMM_TEXEL_R16: case SOMM_TEXEL_R32F: return 1;
-    case SOMM_TEXEL_RG8: return 2;
-    case SOMM_TEXEL_RGBA8: case SOMM_TEXEL_RGBA16: return 4;
+    case SOMM_TEXEL_R8:
+    case SOMM_TEXEL_R16:
+    case SOMM_TEXEL_R32F:
+      return 1;
+    case SOMM_TEXEL_RG8:
+      return 2;
+    case SOMM_TEXEL_RGBA8:
+    case SOMM_TEXEL_RGBA16:
+      return 4;
   }
   return 0;
 }
@@ -43,20 +57,22 @@ uint32_t channels(somm_texel_format f) {
 Result<std::shared_ptr<const AlphaTexture>> convertTexture(const somm_texture& t, const std::string& what,
                                                            bool fill) {
   const uint32_t tb = texelBytes(t.format);
-  if (tb == 0) return invalid(what + ".format " + std::to_string(int(t.format)) + " is not a somm_texel_format");
+  if (tb == 0)
+    return invalid(what + ".format " + std::to_string(int(t.format)) + " is not a somm_texel_format");
   if (t.alpha_channel >= channels(t.format))
     return invalid(what + ".alpha_channel " + std::to_string(t.alpha_channel) + " is out of range for a " +
                    std::to_string(channels(t.format)) + "-channel format");
-  if (t.width == 0 || t.height == 0) return invalid(what + ": empty texture (" + std::to_string(t.width) + "x" +
-                                                    std::to_string(t.height) + ")");
+  if (t.width == 0 || t.height == 0)
+    return invalid(what + ": empty texture (" + std::to_string(t.width) + "x" + std::to_string(t.height) +
+                   ")");
   if (uint64_t(t.width) * t.height >= (uint64_t(1) << 32))
     return makeError(ErrorCode::LimitExceeded, what + ": texture too large");
   if (!t.data) return invalid(what + ".data is NULL");
   const uint64_t rowBytes = uint64_t(t.width) * tb;
   const uint64_t pitch = t.row_pitch ? t.row_pitch : rowBytes;
   if (pitch < rowBytes)
-    return invalid(what + ".row_pitch " + std::to_string(pitch) + " is less than a row (" + std::to_string(rowBytes) +
-                   " bytes)");
+    return invalid(what + ".row_pitch " + std::to_string(pitch) + " is less than a row (" +
+                   std::to_string(rowBytes) + " bytes)");
   const uint64_t need = (uint64_t(t.height) - 1) * pitch + rowBytes;
   if (uint64_t(t.size) < need)
     return invalid(what + ".size " + std::to_string(t.size) + " is less than the " + std::to_string(need) +
@@ -85,10 +101,13 @@ Result<std::shared_ptr<const AlphaTexture>> convertTexture(const somm_texture& t
       const unsigned char* p = row + size_t(x) * tb;
       float a = 0;
       switch (t.format) {
-        case SOMM_TEXEL_R8: case SOMM_TEXEL_RG8: case SOMM_TEXEL_RGBA8:
+        case SOMM_TEXEL_R8:
+        case SOMM_TEXEL_RG8:
+        case SOMM_TEXEL_RGBA8:
           a = float(double(p[c]) / 255.0);
           break;
-        case SOMM_TEXEL_R16: case SOMM_TEXEL_RGBA16: {
+        case SOMM_TEXEL_R16:
+        case SOMM_TEXEL_RGBA16: {
           uint16_t v;
           std::memcpy(&v, p + 2 * c, 2);
           a = float(double(v) / 65535.0);
@@ -126,16 +145,19 @@ Result<Material> convertMaterial(const somm_material& m, uint32_t index, const s
   Material out;
   out.name = std::to_string(index);
   switch (m.alpha_mode) {
-    case SOMM_ALPHA_OPAQUE: out.alphaMode = AlphaMode::Opaque; break;
-    case SOMM_ALPHA_MASK: out.alphaMode = AlphaMode::Mask; break;
+    case SOMM_ALPHA_OPAQUE:
+      out.alphaMode = AlphaMode::Opaque;
+      break;
+    case SOMM_ALPHA_MASK:
+      out.alphaMode = AlphaMode::Mask;
+      break;
     case SOMM_ALPHA_BLEND:
       out.alphaMode = o.blend == SOMM_BLEND_AS_MASK ? AlphaMode::Mask : AlphaMode::Blend;
       break;
     default:
       return invalid(what + ".alpha_mode " + std::to_string(int(m.alpha_mode)) + " is not a somm_alpha_mode");
   }
-  if (!(m.cutoff >= 0.0f && m.cutoff <= 1.0f))
-    return invalid(what + ".cutoff must be a number in [0, 1]");
+  if (!(m.cutoff >= 0.0f && m.cutoff <= 1.0f)) return invalid(what + ".cutoff must be a number in [0, 1]");
   out.alphaCutoff = m.cutoff;
   auto smp = convertSampler(m.sampler, what + ".sampler");
   if (!smp) return smp.error();
@@ -163,8 +185,9 @@ Result<Geometry> convertGeometry(const somm_geometry& g, uint32_t index, bool ne
   switch (g.index_type) {
     case SOMM_INDEX_NONE:
       if (uint64_t(g.vertex_count) < 3 * n)
-        return invalid(what + ": " + std::to_string(n) + " non-indexed triangles need " + std::to_string(3 * n) +
-                       " vertices, vertex_count is " + std::to_string(g.vertex_count));
+        return invalid(what + ": " + std::to_string(n) + " non-indexed triangles need " +
+                       std::to_string(3 * n) + " vertices, vertex_count is " +
+                       std::to_string(g.vertex_count));
       for (uint64_t i = 0; i < 3 * n; ++i) out.indices[size_t(i)] = uint32_t(i);
       break;
     case SOMM_INDEX_UINT16:
@@ -197,7 +220,8 @@ Result<Geometry> convertGeometry(const somm_geometry& g, uint32_t index, bool ne
   if (g.vertex_count && !g.uvs) return invalid(what + ".uvs is NULL");
   out.uvs.resize(size_t(2) * g.vertex_count);
   const auto* uv = reinterpret_cast<const unsigned char*>(g.uvs);
-  for (uint32_t v = 0; v < g.vertex_count; ++v) std::memcpy(&out.uvs[2 * size_t(v)], uv + size_t(v) * stride, 8);
+  for (uint32_t v = 0; v < g.vertex_count; ++v)
+    std::memcpy(&out.uvs[2 * size_t(v)], uv + size_t(v) * stride, 8);
   return out;
 }
 
@@ -312,8 +336,7 @@ Result<SceneBake> bakeFromViews(const somm_bake_input& in, const somm_bake_optio
   bo.threads = o.threads;
   bo.blend = o.blend == SOMM_BLEND_AS_MASK ? BlendAs::Mask : BlendAs::Unknown;
   bo.layout = o.layout == SOMM_ARRAY_PER_GEOMETRY ? ArrayLayout::PerGeometry : ArrayLayout::SceneWide;
-  if (o.progress)
-    bo.progress = [&o](double f) -> bool { return o.progress(f, o.progress_user) == 0; };
+  if (o.progress) bo.progress = [&o](double f) -> bool { return o.progress(f, o.progress_user) == 0; };
   auto baked = bakeScene(inputs, bo);
   if (!baked) return baked.error();
 

@@ -1,7 +1,5 @@
 // SPDX-License-Identifier: MIT
 // The C API (include/somm/somm.h). Every entry point catches everything: no exception crosses the API.
-#include "somm/somm.h"
-
 #include <cstdio>
 #include <cstring>
 #include <new>
@@ -11,6 +9,7 @@
 #include "bake_views.h"
 #include "somm/encode.h"
 #include "somm/omm_array.h"
+#include "somm/somm.h"
 
 struct somm_bake_result {
   somm::capi::SceneBake bake;
@@ -25,13 +24,20 @@ namespace {
 
 somm_result codeOf(somm::ErrorCode c) {
   switch (c) {
-    case somm::ErrorCode::InvalidArgument: return SOMM_ERROR_INVALID_ARGUMENT;
-    case somm::ErrorCode::ParseError: return SOMM_ERROR_PARSE;
-    case somm::ErrorCode::IoError: return SOMM_ERROR_IO;
-    case somm::ErrorCode::CorruptFile: return SOMM_ERROR_CORRUPT;
-    case somm::ErrorCode::UnsupportedFormat: return SOMM_ERROR_UNSUPPORTED;
-    case somm::ErrorCode::LimitExceeded: return SOMM_ERROR_LIMIT_EXCEEDED;
-    case somm::ErrorCode::Cancelled: return SOMM_ERROR_CANCELLED;
+    case somm::ErrorCode::InvalidArgument:
+      return SOMM_ERROR_INVALID_ARGUMENT;
+    case somm::ErrorCode::ParseError:
+      return SOMM_ERROR_PARSE;
+    case somm::ErrorCode::IoError:
+      return SOMM_ERROR_IO;
+    case somm::ErrorCode::CorruptFile:
+      return SOMM_ERROR_CORRUPT;
+    case somm::ErrorCode::UnsupportedFormat:
+      return SOMM_ERROR_UNSUPPORTED;
+    case somm::ErrorCode::LimitExceeded:
+      return SOMM_ERROR_LIMIT_EXCEEDED;
+    case somm::ErrorCode::Cancelled:
+      return SOMM_ERROR_CANCELLED;
   }
   return SOMM_ERROR_INTERNAL;
 }
@@ -46,7 +52,9 @@ somm_result fail(somm_error* e, somm_result code, const char* message) noexcept 
 somm_result fail(somm_error* e, somm_result code, const std::string& message) noexcept {
   return fail(e, code, message.c_str());
 }
-somm_result fail(somm_error* e, const somm::Error& err) noexcept { return fail(e, codeOf(err.code), err.message); }
+somm_result fail(somm_error* e, const somm::Error& err) noexcept {
+  return fail(e, codeOf(err.code), err.message);
+}
 somm_result ok(somm_error* e) noexcept {
   if (e) {
     e->code = SOMM_OK;
@@ -77,12 +85,14 @@ void putU32(unsigned char* p, uint32_t v) {
 uint32_t getU32(const unsigned char* p) {
   return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24;
 }
-uint16_t getU16(const unsigned char* p) { return uint16_t(p[0] | p[1] << 8); }
+uint16_t getU16(const unsigned char* p) {
+  return uint16_t(p[0] | p[1] << 8);
+}
 
 somm_result tooSmall(somm_error* e, const char* what, uint64_t need, uint64_t have) {
   return fail(e, SOMM_ERROR_BUFFER_TOO_SMALL,
-              std::string(what) + " capacity " + std::to_string(have) + " is less than the " + std::to_string(need) +
-                  " needed");
+              std::string(what) + " capacity " + std::to_string(have) + " is less than the " +
+                  std::to_string(need) + " needed");
 }
 
 // A geometry's own index type: 16-bit when every non-special index fits below the special values (as `somm export`).
@@ -94,28 +104,42 @@ somm_index_type indexTypeOf(const somm::SceneMicromaps& m, uint32_t g) {
 }
 
 void copyUsage(const std::vector<somm::UsageCount>& h, somm_usage_count* dst) {
-  for (size_t i = 0; i < h.size(); ++i) dst[i] = somm_usage_count{h[i].count, h[i].subdivisionLevel, h[i].format};
+  for (size_t i = 0; i < h.size(); ++i)
+    dst[i] = somm_usage_count{h[i].count, h[i].subdivisionLevel, h[i].format};
 }
 
 }  // namespace
 
 extern "C" {
 
-const char* somm_version(void) { return SOMM_VERSION_STRING; }
+const char* somm_version(void) {
+  return SOMM_VERSION_STRING;
+}
 
 const char* somm_result_name(somm_result r) {
   switch (r) {
-    case SOMM_OK: return "ok";
-    case SOMM_ERROR_INVALID_ARGUMENT: return "invalid argument";
-    case SOMM_ERROR_PARSE: return "parse error";
-    case SOMM_ERROR_IO: return "I/O error";
-    case SOMM_ERROR_CORRUPT: return "corrupt data";
-    case SOMM_ERROR_UNSUPPORTED: return "unsupported";
-    case SOMM_ERROR_LIMIT_EXCEEDED: return "limit exceeded";
-    case SOMM_ERROR_BUFFER_TOO_SMALL: return "buffer too small";
-    case SOMM_ERROR_CANCELLED: return "cancelled";
-    case SOMM_ERROR_OUT_OF_MEMORY: return "out of memory";
-    case SOMM_ERROR_INTERNAL: return "internal error";
+    case SOMM_OK:
+      return "ok";
+    case SOMM_ERROR_INVALID_ARGUMENT:
+      return "invalid argument";
+    case SOMM_ERROR_PARSE:
+      return "parse error";
+    case SOMM_ERROR_IO:
+      return "I/O error";
+    case SOMM_ERROR_CORRUPT:
+      return "corrupt data";
+    case SOMM_ERROR_UNSUPPORTED:
+      return "unsupported";
+    case SOMM_ERROR_LIMIT_EXCEEDED:
+      return "limit exceeded";
+    case SOMM_ERROR_BUFFER_TOO_SMALL:
+      return "buffer too small";
+    case SOMM_ERROR_CANCELLED:
+      return "cancelled";
+    case SOMM_ERROR_OUT_OF_MEMORY:
+      return "out of memory";
+    case SOMM_ERROR_INTERNAL:
+      return "internal error";
   }
   return "unknown result";
 }
@@ -181,8 +205,8 @@ somm_flat_array somm_flat_array_default(void) {
   return f;
 }
 
-somm_result somm_bake(const somm_bake_input* input, const somm_bake_options* options, somm_bake_result** result,
-                      somm_error* error) {
+somm_result somm_bake(const somm_bake_input* input, const somm_bake_options* options,
+                      somm_bake_result** result, somm_error* error) {
   return guarded(error, [&]() -> somm_result {
     if (!result) return fail(error, SOMM_ERROR_INVALID_ARGUMENT, "somm_bake: result is NULL");
     *result = nullptr;
@@ -199,7 +223,9 @@ somm_result somm_bake(const somm_bake_input* input, const somm_bake_options* opt
   });
 }
 
-void somm_bake_result_destroy(somm_bake_result* result) { delete result; }
+void somm_bake_result_destroy(somm_bake_result* result) {
+  delete result;
+}
 
 uint32_t somm_bake_result_array_count(const somm_bake_result* r) {
   return r ? uint32_t(r->bake.micromaps.arrays.size()) : 0;
@@ -210,12 +236,15 @@ uint32_t somm_bake_result_geometry_count(const somm_bake_result* r) {
 somm_format somm_bake_result_format(const somm_bake_result* r) {
   return r && r->bake.format == somm::Format::TwoState ? SOMM_FORMAT_2_STATE : SOMM_FORMAT_4_STATE;
 }
-uint32_t somm_bake_result_level_cap(const somm_bake_result* r) { return r ? r->bake.levelCap : 12; }
+uint32_t somm_bake_result_level_cap(const somm_bake_result* r) {
+  return r ? r->bake.levelCap : 12;
+}
 
 somm_result somm_bake_result_array_info(const somm_bake_result* r, uint32_t array, somm_array_info* info,
                                         somm_error* error) {
   return guarded(error, [&]() -> somm_result {
-    if (!r || !info) return fail(error, SOMM_ERROR_INVALID_ARGUMENT, "somm_bake_result_array_info: NULL argument");
+    if (!r || !info)
+      return fail(error, SOMM_ERROR_INVALID_ARGUMENT, "somm_bake_result_array_info: NULL argument");
     if (array >= r->bake.micromaps.arrays.size())
       return fail(error, SOMM_ERROR_INVALID_ARGUMENT,
                   "array " + std::to_string(array) + " is out of range (" +
@@ -225,20 +254,22 @@ somm_result somm_bake_result_array_info(const somm_bake_result* r, uint32_t arra
     info->triangle_count = uint32_t(a.descriptors.size());
     info->usage_count_count = uint32_t(a.histogram.size());
     info->geometry_count = 0;
-    for (const somm::GeometryMicromaps& g : r->bake.micromaps.geometries) info->geometry_count += g.array == array;
+    for (const somm::GeometryMicromaps& g : r->bake.micromaps.geometries)
+      info->geometry_count += g.array == array;
     return ok(error);
   });
 }
 
-somm_result somm_bake_result_copy_array(const somm_bake_result* r, uint32_t array, const somm_array_buffers* b,
-                                        somm_error* error) {
+somm_result somm_bake_result_copy_array(const somm_bake_result* r, uint32_t array,
+                                        const somm_array_buffers* b, somm_error* error) {
   return guarded(error, [&]() -> somm_result {
     somm_array_info info;
     if (somm_result s = somm_bake_result_array_info(r, array, &info, error); s != SOMM_OK) return s;
     if (!b) return fail(error, SOMM_ERROR_INVALID_ARGUMENT, "somm_bake_result_copy_array: buffers is NULL");
     const somm::OmmArray& a = r->bake.micromaps.arrays[array];
     const uint64_t trianglesBytes = uint64_t(info.triangle_count) * 8;
-    if (b->data && b->data_capacity < info.data_size) return tooSmall(error, "data", info.data_size, b->data_capacity);
+    if (b->data && b->data_capacity < info.data_size)
+      return tooSmall(error, "data", info.data_size, b->data_capacity);
     if (b->triangles && b->triangles_capacity < trianglesBytes)
       return tooSmall(error, "triangles", trianglesBytes, b->triangles_capacity);
     if (b->usage_counts && b->usage_counts_capacity < info.usage_count_count)
@@ -257,8 +288,8 @@ somm_result somm_bake_result_copy_array(const somm_bake_result* r, uint32_t arra
   });
 }
 
-somm_result somm_bake_result_geometry_info(const somm_bake_result* r, uint32_t geometry, somm_geometry_info* info,
-                                           somm_error* error) {
+somm_result somm_bake_result_geometry_info(const somm_bake_result* r, uint32_t geometry,
+                                           somm_geometry_info* info, somm_error* error) {
   return guarded(error, [&]() -> somm_result {
     if (!r || !info)
       return fail(error, SOMM_ERROR_INVALID_ARGUMENT, "somm_bake_result_geometry_info: NULL argument");
@@ -289,7 +320,8 @@ somm_result somm_bake_result_copy_geometry(const somm_bake_result* r, uint32_t g
   return guarded(error, [&]() -> somm_result {
     somm_geometry_info info;
     if (somm_result s = somm_bake_result_geometry_info(r, geometry, &info, error); s != SOMM_OK) return s;
-    if (!b) return fail(error, SOMM_ERROR_INVALID_ARGUMENT, "somm_bake_result_copy_geometry: buffers is NULL");
+    if (!b)
+      return fail(error, SOMM_ERROR_INVALID_ARGUMENT, "somm_bake_result_copy_geometry: buffers is NULL");
     if (b->indices && b->indices_capacity < info.index_size)
       return tooSmall(error, "indices", info.index_size, b->indices_capacity);
     if (b->usage_counts && b->usage_counts_capacity < info.usage_count_count)
@@ -308,8 +340,8 @@ somm_result somm_bake_result_copy_geometry(const somm_bake_result* r, uint32_t g
 
 // ---- encoded arrays ----
 
-somm_result somm_encoded_array_build(const somm_flat_array* f, somm_encoding encoding, somm_encoded_array** out,
-                                     somm_error* error) {
+somm_result somm_encoded_array_build(const somm_flat_array* f, somm_encoding encoding,
+                                     somm_encoded_array** out, somm_error* error) {
   return guarded(error, [&]() -> somm_result {
     if (!out) return fail(error, SOMM_ERROR_INVALID_ARGUMENT, "somm_encoded_array_build: array is NULL");
     *out = nullptr;
@@ -349,11 +381,13 @@ somm_result somm_encoded_array_build(const somm_flat_array* f, somm_encoding enc
   });
 }
 
-somm_result somm_encoded_array_parse(const void* bytes, size_t size, somm_encoded_array** out, somm_error* error) {
+somm_result somm_encoded_array_parse(const void* bytes, size_t size, somm_encoded_array** out,
+                                     somm_error* error) {
   return guarded(error, [&]() -> somm_result {
     if (!out) return fail(error, SOMM_ERROR_INVALID_ARGUMENT, "somm_encoded_array_parse: array is NULL");
     *out = nullptr;
-    if (!bytes && size) return fail(error, SOMM_ERROR_INVALID_ARGUMENT, "somm_encoded_array_parse: bytes is NULL");
+    if (!bytes && size)
+      return fail(error, SOMM_ERROR_INVALID_ARGUMENT, "somm_encoded_array_parse: bytes is NULL");
     static const uint8_t kEmpty = 0;
     const uint8_t* p = size ? static_cast<const uint8_t*>(bytes) : &kEmpty;
     auto e = somm::EncodedArray::parse(somm::Span<const uint8_t>(p, size), "encoded array");
@@ -363,19 +397,28 @@ somm_result somm_encoded_array_parse(const void* bytes, size_t size, somm_encode
   });
 }
 
-void somm_encoded_array_destroy(somm_encoded_array* a) { delete a; }
+void somm_encoded_array_destroy(somm_encoded_array* a) {
+  delete a;
+}
 
 somm_encoding somm_encoded_array_encoding(const somm_encoded_array* a) {
   return a ? somm_encoding(a->array.encoding()) : SOMM_ENCODING_FLAT;
 }
-uint32_t somm_encoded_array_triangle_count(const somm_encoded_array* a) { return a ? a->array.triangleCount() : 0; }
-uint32_t somm_encoded_array_map_count(const somm_encoded_array* a) { return a ? a->array.mapCount() : 0; }
-uint64_t somm_encoded_array_serialized_size(const somm_encoded_array* a) { return a ? a->array.byteSize() : 0; }
+uint32_t somm_encoded_array_triangle_count(const somm_encoded_array* a) {
+  return a ? a->array.triangleCount() : 0;
+}
+uint32_t somm_encoded_array_map_count(const somm_encoded_array* a) {
+  return a ? a->array.mapCount() : 0;
+}
+uint64_t somm_encoded_array_serialized_size(const somm_encoded_array* a) {
+  return a ? a->array.byteSize() : 0;
+}
 
 somm_result somm_encoded_array_serialize(const somm_encoded_array* a, void* bytes, uint64_t capacity,
                                          somm_error* error) {
   return guarded(error, [&]() -> somm_result {
-    if (!a || !bytes) return fail(error, SOMM_ERROR_INVALID_ARGUMENT, "somm_encoded_array_serialize: NULL argument");
+    if (!a || !bytes)
+      return fail(error, SOMM_ERROR_INVALID_ARGUMENT, "somm_encoded_array_serialize: NULL argument");
     if (capacity < a->array.byteSize())
       return fail(error, SOMM_ERROR_BUFFER_TOO_SMALL,
                   "capacity " + std::to_string(capacity) + " is less than the " +

@@ -50,9 +50,8 @@ Result<std::vector<Encoding>> parseEncodingList(std::string_view list) {
     } else if (auto e = parseEncodingName(name)) {
       add(*e);
     } else {
-      return makeError(
-          ErrorCode::InvalidArgument,
-          "unknown encoding '" + std::string(name) +
+      return makeError(ErrorCode::InvalidArgument,
+                       "unknown encoding '" + std::string(name) +
                            "' (expected flat, dfs, dfs-fast, rank, hybrid, csm, sdag or all)");
     }
     if (comma == std::string_view::npos) break;
@@ -480,15 +479,18 @@ struct DagTables {
 
 using NodeVals = std::vector<std::vector<uint8_t>>;
 
-uint32_t internRecord(const NodeVals& vals, uint32_t level, Format f, uint32_t d, uint64_t i, DagTables& tables);
+uint32_t internRecord(const NodeVals& vals, uint32_t level, Format f, uint32_t d, uint64_t i,
+                      DagTables& tables);
 
-uint32_t internSubtree(const NodeVals& vals, uint32_t level, Format f, uint32_t d, uint64_t i, DagTables& tables) {
+uint32_t internSubtree(const NodeVals& vals, uint32_t level, Format f, uint32_t d, uint64_t i,
+                       DagTables& tables) {
   if (vals[d][i] != kMixed) return vals[d][i];
   return kNodeCode + internRecord(vals, level, f, d, i, tables);
 }
 
 // The 16-way record of quadtree node (d, i) (level - d even, >= 2), uniform or not.
-uint32_t internRecord(const NodeVals& vals, uint32_t level, Format f, uint32_t d, uint64_t i, DagTables& tables) {
+uint32_t internRecord(const NodeVals& vals, uint32_t level, Format f, uint32_t d, uint64_t i,
+                      DagTables& tables) {
   const uint32_t h = (level - d) / 2;
   Key k{};
   if (h == 1) {
@@ -681,11 +683,13 @@ std::vector<uint8_t> emitSdag(const DagTables& tables, const std::vector<DagRoot
 }
 
 // csm: the uniform non-transparent records every record (and root) refers to, then absolute offsets bottom-up.
-std::vector<uint8_t> emitCsm(DagTables& tables, const std::vector<DagRoot>& roots, std::vector<uint32_t>& offsets) {
+std::vector<uint8_t> emitCsm(DagTables& tables, const std::vector<DagRoot>& roots,
+                             std::vector<uint32_t>& offsets) {
   for (const DagRoot& r : roots)
     if (r.level >= 3 && r.level % 2 == 1)
       for (uint32_t c : r.children)
-        if (c != 0 && c < kNodeCode) tables.intern(sdagRegion(r.format, (r.level - 1) / 2), uniformKey((r.level - 1) / 2, c));
+        if (c != 0 && c < kNodeCode)
+          tables.intern(sdagRegion(r.format, (r.level - 1) / 2), uniformKey((r.level - 1) / 2, c));
   for (Format f : {Format::TwoState, Format::FourState})
     for (uint32_t h = 6; h >= 2; --h) {
       const uint32_t k = sdagRegion(f, h);
@@ -712,7 +716,8 @@ std::vector<uint8_t> emitCsm(DagTables& tables, const std::vector<DagRoot>& root
     out.put(m, 16);
     for (uint32_t s = 0; s < slots; ++s) {
       if (r[s] == 0) continue;
-      const uint32_t id = r[s] >= kNodeCode ? r[s] - kNodeCode : tables.find(below, uniformKey(childHeight, r[s]));
+      const uint32_t id =
+          r[s] >= kNodeCode ? r[s] - kNodeCode : tables.find(below, uniformKey(childHeight, r[s]));
       out.put(off[below][id], 32);
     }
   };
@@ -997,7 +1002,7 @@ SdagBuild buildSdag(const std::vector<Micromap>& maps, std::vector<encode::DagMa
   std::vector<encode::DagRoot> roots;
   for (size_t i = 0; i < maps.size(); ++i)
     roots.push_back(choice[i].kind == MapKind::Sdag ? encode::internMap(maps[i], tables)
-                                                     : encode::DagRoot{maps[i].level(), maps[i].format()});
+                                                    : encode::DagRoot{maps[i].level(), maps[i].format()});
   SdagBuild b;
   b.data = encode::emitSdag(tables, roots, choice, b.offsets, b.dir);
   b.kinds = std::move(choice);
@@ -1093,8 +1098,8 @@ Result<EncodedArray> EncodedArray::build(const OmmArray& array, Encoding encodin
     return makeError(ErrorCode::LimitExceeded, "encoded micromap data exceeds 4 GiB");
   bool anyTree = encoding != Encoding::Flat && encoding != Encoding::Hybrid;
   for (uint32_t i : mapOfDescriptor) {
-    out.maps_.push_back(EncodedMapDesc{offsets[i], uint8_t(maps[i].level()), uint8_t(maps[i].format()),
-                                       kinds[i].kind, 0});
+    out.maps_.push_back(
+        EncodedMapDesc{offsets[i], uint8_t(maps[i].level()), uint8_t(maps[i].format()), kinds[i].kind, 0});
     anyTree |= kinds[i].kind != MapKind::Flat;
   }
   out.dataBytes_ = data.size();
@@ -1249,7 +1254,8 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
       if (Status st = sdag.root(d.offset, d.level, f); !st) return bad(which + st.error().message);
     } else if (d.kind == MapKind::Csm) {
       if (Status st = csm.root(d.offset, d.level, f); !st) return bad(which + st.error().message);
-    } else if (validated.emplace(std::make_tuple(d.offset, d.level, d.format, uint8_t(d.kind)), true).second) {
+    } else if (validated.emplace(std::make_tuple(d.offset, d.level, d.format, uint8_t(d.kind)), true)
+                   .second) {
       auto size = encode::validateMap(data + d.offset, dataBytes - d.offset, d.kind, d.level, f);
       if (!size) return bad(which + size.error().message);
     }
@@ -1269,10 +1275,10 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
 Status verifyAgainstFlat(const EncodedArray& e, const OmmArray& flat, std::string_view what) {
   const std::string w(what);
   if (e.triangleCount() != flat.indices.size() || e.mapCount() != flat.descriptors.size())
-    return makeError(ErrorCode::CorruptFile, w + ": " + std::to_string(e.triangleCount()) + " triangles and " +
-                                                 std::to_string(e.mapCount()) + " maps, flat has " +
-                                                 std::to_string(flat.indices.size()) + " and " +
-                                                 std::to_string(flat.descriptors.size()));
+    return makeError(ErrorCode::CorruptFile, w + ": " + std::to_string(e.triangleCount()) +
+                                                 " triangles and " + std::to_string(e.mapCount()) +
+                                                 " maps, flat has " + std::to_string(flat.indices.size()) +
+                                                 " and " + std::to_string(flat.descriptors.size()));
   for (size_t t = 0; t < flat.indices.size(); ++t)
     if (e.indices()[t] != flat.indices[t])
       return makeError(ErrorCode::CorruptFile, w + ": triangle " + std::to_string(t) + " has index " +
@@ -1292,17 +1298,18 @@ Status verifyAgainstFlat(const EncodedArray& e, const OmmArray& flat, std::strin
     const TriangleDescriptor& d = flat.descriptors[i];
     const EncodedMapDesc& m = descs[i];
     if (m.level != d.subdivisionLevel || m.format != d.format)
-      return makeError(ErrorCode::CorruptFile, w + ": map " + std::to_string(i) + " has level " +
-                                                   std::to_string(m.level) + " format " + std::to_string(m.format) +
-                                                   ", flat has level " + std::to_string(d.subdivisionLevel) +
-                                                   " format " + std::to_string(d.format));
+      return makeError(ErrorCode::CorruptFile,
+                       w + ": map " + std::to_string(i) + " has level " + std::to_string(m.level) +
+                           " format " + std::to_string(m.format) + ", flat has level " +
+                           std::to_string(d.subdivisionLevel) + " format " + std::to_string(d.format));
     const auto key = std::make_tuple(m.offset, m.level, m.format, uint8_t(m.kind));
     auto it = decoded.find(key);
     if (it == decoded.end()) {
       work += microTriangleCount(m.level);
       if (work > budget)
         return makeError(ErrorCode::LimitExceeded,
-                         w + ": checking this encoding against flat would decode more than " + std::to_string(budget) +
+                         w + ": checking this encoding against flat would decode more than " +
+                             std::to_string(budget) +
                              " micro-triangle states (its maps are shared beyond what the data can hold)");
       maps.push_back(e.decodeMap(uint32_t(i)));
       it = decoded.emplace(key, maps.size() - 1).first;
@@ -1324,7 +1331,8 @@ Status verifyAgainstFlat(const EncodedArray& e, const OmmArray& flat, std::strin
              readPackedState(a.bytes().data(), f, k) == readPackedState(fb, f, k))
         ++k;
       return makeError(ErrorCode::CorruptFile, w + ": map " + std::to_string(i) + " micro-triangle " +
-                                                   std::to_string(k) + " differs from flat (the stored encoding "
+                                                   std::to_string(k) +
+                                                   " differs from flat (the stored encoding "
                                                    "contradicts the spec buffers)");
     }
   }

@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: MIT
 // Whole-file reading and atomic writing of .somm files; the mechanisms live in somm/io.h (src/util/io.cpp).
+#include "somm/io.h"
+
 #include <string>
 
-#include "somm/io.h"
 #include "somm/limits.h"
 #include "somm/somm_file.h"
 

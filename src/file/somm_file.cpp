@@ -2,7 +2,6 @@
 // The .somm container (docs/somm-format.md).
 #include "somm/somm_file.h"
 
-#include <span>
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -13,6 +12,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <span>
 #include <string>
 
 namespace somm {
@@ -137,9 +137,9 @@ Status checkGeometryMaps(const GeometryInfo& in, const OmmArray& a, const Geomet
     if (isSpecialIndex(i)) continue;
     const TriangleDescriptor& d = a.descriptors[size_t(i)];
     if (d.format != uint16_t(in.format))
-      return makeError(ErrorCode::CorruptFile, what + ": triangle " + std::to_string(t) + " uses descriptor " +
-                                                   std::to_string(i) + " of format " + std::to_string(d.format) +
-                                                   " but the geometry is format " +
+      return makeError(ErrorCode::CorruptFile, what + ": triangle " + std::to_string(t) +
+                                                   " uses descriptor " + std::to_string(i) + " of format " +
+                                                   std::to_string(d.format) + " but the geometry is format " +
                                                    std::to_string(uint32_t(in.format)));
     if (d.subdivisionLevel < in.minLevel || d.subdivisionLevel > in.maxLevel)
       return makeError(ErrorCode::CorruptFile,
@@ -163,12 +163,13 @@ Status checkEncodings(const std::vector<EncodedSection>& extra, const std::strin
 Status checkFile(const SommFile& f) {
   const SceneMicromaps& m = f.micromaps;
   if (m.geometries.size() != f.geometries.size())
-    return makeError(ErrorCode::InvalidArgument,
-                     std::to_string(f.geometries.size()) + " geometries but micromaps for " +
-                         std::to_string(m.geometries.size()));
+    return makeError(ErrorCode::InvalidArgument, std::to_string(f.geometries.size()) +
+                                                     " geometries but micromaps for " +
+                                                     std::to_string(m.geometries.size()));
   if (f.encodings.size() != m.arrays.size())
-    return makeError(ErrorCode::InvalidArgument, std::to_string(m.arrays.size()) + " arrays but encodings for " +
-                                                     std::to_string(f.encodings.size()));
+    return makeError(
+        ErrorCode::InvalidArgument,
+        std::to_string(m.arrays.size()) + " arrays but encodings for " + std::to_string(f.encodings.size()));
   if (f.geometries.size() > 0xffffffffull || m.arrays.size() > 0xfffffffeull)
     return makeError(ErrorCode::LimitExceeded, "too many geometries or arrays");
   std::vector<uint64_t> next(m.arrays.size(), 0);
@@ -179,10 +180,12 @@ Status checkFile(const SommFile& f) {
     if (Status s = checkInfo(in, what); !s) return s;
     if (r.triangleCount != in.triangleCount)
       return makeError(ErrorCode::CorruptFile, what + ": triangle count " + std::to_string(in.triangleCount) +
-                                                   " but its micromaps cover " + std::to_string(r.triangleCount));
+                                                   " but its micromaps cover " +
+                                                   std::to_string(r.triangleCount));
     if (r.array >= m.arrays.size())
-      return makeError(ErrorCode::CorruptFile, what + ": array " + std::to_string(r.array) + " does not exist (" +
-                                                   std::to_string(m.arrays.size()) + " arrays)");
+      return makeError(ErrorCode::CorruptFile, what + ": array " + std::to_string(r.array) +
+                                                   " does not exist (" + std::to_string(m.arrays.size()) +
+                                                   " arrays)");
     if (r.firstTriangle != next[r.array])
       return makeError(ErrorCode::CorruptFile,
                        what + ": starts at triangle " + std::to_string(r.firstTriangle) + " of array " +
@@ -324,10 +327,10 @@ Status parseGeom(const uint8_t* p, size_t n, GeometryInfo& g, GeometryMicromaps*
   uint32_t reserved32;
   if (!r.str(g.name) || !r.str(g.material) || !r.u32(g.triangleCount) ||
       (placement && (!r.u32(placement->array) || !r.u32(placement->firstTriangle))) || !r.u8(format) ||
-      !r.u8(minLevel) ||
-      !r.u8(maxLevel) || !r.u8(filter) || !r.u8(wrapS) || !r.u8(wrapT) || !r.u8(reserved8[0]) ||
-      !r.u8(reserved8[1]) || !r.f32(g.cutoff) || !r.u32(reserved32) || !r.u64(g.stats.microTriangles) ||
-      !r.u64(g.stats.unknownMicroTriangles) || !r.u64(g.stats.invalidUvTriangles))
+      !r.u8(minLevel) || !r.u8(maxLevel) || !r.u8(filter) || !r.u8(wrapS) || !r.u8(wrapT) ||
+      !r.u8(reserved8[0]) || !r.u8(reserved8[1]) || !r.f32(g.cutoff) || !r.u32(reserved32) ||
+      !r.u64(g.stats.microTriangles) || !r.u64(g.stats.unknownMicroTriangles) ||
+      !r.u64(g.stats.invalidUvTriangles))
     return makeError(ErrorCode::CorruptFile, what + ": payload too short or a string length out of range");
   if (r.remaining() != 0)
     return makeError(ErrorCode::CorruptFile,
@@ -605,12 +608,13 @@ Result<SommFile> parseSomm(Span<const uint8_t> bytes, std::string_view nameView)
       if (v1 && geomDone > 0 && !flatSeen)
         return cerr(ErrorCode::CorruptFile,
                     "geometry " + std::to_string(geomDone - 1) + " has no 'FLAT' chunk");
-      if (!v1 && arraysDone > 0)
-        return cerr(ErrorCode::CorruptFile, "geometries must precede the arrays");
-      if (index != geomDone) return cerr(ErrorCode::CorruptFile, "expected geometry " + std::to_string(geomDone));
+      if (!v1 && arraysDone > 0) return cerr(ErrorCode::CorruptFile, "geometries must precede the arrays");
+      if (index != geomDone)
+        return cerr(ErrorCode::CorruptFile, "expected geometry " + std::to_string(geomDone));
       GeometryInfo info;
       GeometryMicromaps place;
-      if (Status s = parseGeom(payload, size_t(size), info, v1 ? nullptr : &place, what); !s) return s.error();
+      if (Status s = parseGeom(payload, size_t(size), info, v1 ? nullptr : &place, what); !s)
+        return s.error();
       if (Status s = checkInfo(info, what); !s) return s.error();
       if (!v1) {
         if (place.array >= arrayCount)
@@ -646,7 +650,8 @@ Result<SommFile> parseSomm(Span<const uint8_t> bytes, std::string_view nameView)
         if (arraysDone == arrayCount)
           return cerr(ErrorCode::CorruptFile,
                       "more arrays than the " + std::to_string(arrayCount) + " declared");
-        if (index != arraysDone) return cerr(ErrorCode::CorruptFile, "expected array " + std::to_string(arraysDone));
+        if (index != arraysDone)
+          return cerr(ErrorCode::CorruptFile, "expected array " + std::to_string(arraysDone));
       }
       if (Status s = parseFlat(payload, size_t(size), a, what); !s) return s.error();
       if (Status s = validateOmmArray(a, what); !s) return s.error();
@@ -673,8 +678,8 @@ Result<SommFile> parseSomm(Span<const uint8_t> bytes, std::string_view nameView)
       out.encodings.emplace_back();
       flatSeen = true;
     } else if (type == kEncd) {
-      const bool follows = v1 ? geomDone > 0 && index == geomDone - 1 && flatSeen
-                              : arraysDone > 0 && index == arraysDone - 1;
+      const bool follows =
+          v1 ? geomDone > 0 && index == geomDone - 1 && flatSeen : arraysDone > 0 && index == arraysDone - 1;
       if (!follows)
         return cerr(ErrorCode::CorruptFile,
                     std::string("does not follow the 'FLAT' chunk of its ") + (v1 ? "geometry" : "array"));

@@ -71,7 +71,9 @@ bool getInt(const json& o, const char* key, int64_t& out) {
   return false;
 }
 
-bool isDataUri(const std::string& uri) { return uri.rfind("data:", 0) == 0; }
+bool isDataUri(const std::string& uri) {
+  return uri.rfind("data:", 0) == 0;
+}
 
 bool isRelativeUri(const std::string& uri) {
   if (uri.empty() || uri[0] == '/' || uri[0] == '\\') return false;
@@ -135,7 +137,8 @@ Result<Document> parseDocument(const std::vector<uint8_t>& bytes, bool binary, c
     const uint64_t jsonLen = le32(bytes.data() + 12);
     if (le32(bytes.data() + 16) != 0x4E4F534Au)
       return d.fail(ErrorCode::CorruptFile, "GLB: the first chunk is not JSON");
-    if (jsonLen > total - 20) return d.fail(ErrorCode::CorruptFile, "GLB: the JSON chunk extends past the end");
+    if (jsonLen > total - 20)
+      return d.fail(ErrorCode::CorruptFile, "GLB: the JSON chunk extends past the end");
     text = reinterpret_cast<const char*>(bytes.data() + 20);
     textSize = size_t(jsonLen);
     uint64_t at = 20 + ((jsonLen + 3) & ~uint64_t(3));

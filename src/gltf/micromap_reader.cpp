@@ -44,8 +44,9 @@ Result<ViewBytes> bufferView(Document& d, int64_t index, const std::string& what
   auto buf = d.buffer(size_t(buffer));
   if (!buf) return buf.error();
   if (uint64_t(offset) > (*buf)->size() || uint64_t(length) > (*buf)->size() - uint64_t(offset))
-    return d.fail(ErrorCode::CorruptFile, name + ": byteOffset + byteLength MUST NOT exceed the byteLength of buffer " +
-                                              std::to_string(buffer) + " (glTF 2.0)");
+    return d.fail(ErrorCode::CorruptFile,
+                  name + ": byteOffset + byteLength MUST NOT exceed the byteLength of buffer " +
+                      std::to_string(buffer) + " (glTF 2.0)");
   ViewBytes out;
   out.data = (*buf)->data() + offset;
   out.size = size_t(length);
@@ -64,9 +65,11 @@ Result<std::vector<PrimitiveRef>> primitives(Document& d) {
     const json& mesh = (*meshes)[mi];
     const json* prims = member(mesh, "primitives");
     if (!prims || !prims->is_array())
-      return d.fail(ErrorCode::CorruptFile, "meshes[" + std::to_string(mi) + "]: primitives MUST be an array");
+      return d.fail(ErrorCode::CorruptFile,
+                    "meshes[" + std::to_string(mi) + "]: primitives MUST be an array");
     const json* nameJ = member(mesh, "name");
-    const std::string meshName = nameJ && nameJ->is_string() ? nameJ->get<std::string>() : "mesh" + std::to_string(mi);
+    const std::string meshName =
+        nameJ && nameJ->is_string() ? nameJ->get<std::string>() : "mesh" + std::to_string(mi);
     for (size_t pi = 0; pi < prims->size(); ++pi) {
       PrimitiveRef r;
       r.mesh = mi, r.primitive = pi;
@@ -86,7 +89,8 @@ Result<std::vector<PrimitiveRef>> primitives(Document& d) {
         int64_t acc = -1;
         const bool indexed = p.contains("indices");
         if (indexed) {
-          if (!getInt(p, "indices", acc)) return d.fail(ErrorCode::CorruptFile, r.where + ": indices is not an integer");
+          if (!getInt(p, "indices", acc))
+            return d.fail(ErrorCode::CorruptFile, r.where + ": indices is not an integer");
         } else {
           const json* attrs = member(p, "attributes");
           if (!attrs || !getInt(*attrs, "POSITION", acc))
@@ -106,11 +110,14 @@ Result<std::vector<PrimitiveRef>> primitives(Document& d) {
           if (view < 0 || !views || uint64_t(view) >= views->size() ||
               !getInt((*views)[size_t(view)], "byteLength", viewLength) || count > viewLength)
             return d.fail(ErrorCode::CorruptFile, r.where + ": accessor " + std::to_string(acc) + ": " +
-                                                      std::to_string(count) + " elements do not fit its buffer view");
+                                                      std::to_string(count) +
+                                                      " elements do not fit its buffer view");
         } else if (count > (int64_t(1) << 20)) {
-          return d.fail(ErrorCode::LimitExceeded, r.where + ": accessor " + std::to_string(acc) + ": too many elements");
+          return d.fail(ErrorCode::LimitExceeded,
+                        r.where + ": accessor " + std::to_string(acc) + ": too many elements");
         }
-        if (count / 3 > int64_t(UINT32_MAX)) return d.fail(ErrorCode::LimitExceeded, r.where + ": too many triangles");
+        if (count / 3 > int64_t(UINT32_MAX))
+          return d.fail(ErrorCode::LimitExceeded, r.where + ": too many triangles");
         r.triangles = uint32_t(count / 3);
       }
       out.push_back(std::move(r));
@@ -136,7 +143,8 @@ MaterialRef materialRef(const Document& d, int64_t material) {
   const json* textures = array(d.root, "textures");
   const json* samplers = array(d.root, "samplers");
   if (tex && getInt(*tex, "index", ti) && ti >= 0 && textures && uint64_t(ti) < textures->size() &&
-      getInt((*textures)[size_t(ti)], "sampler", si) && si >= 0 && samplers && uint64_t(si) < samplers->size()) {
+      getInt((*textures)[size_t(ti)], "sampler", si) && si >= 0 && samplers &&
+      uint64_t(si) < samplers->size()) {
     const json& s = (*samplers)[size_t(si)];
     int64_t v = 0;
     auto wrap = [](int64_t w) {
@@ -181,15 +189,20 @@ struct ArrayRead {
 
 Result<ArrayRead> readArray(Document& d, const json& m, size_t i) {
   const std::string where = kExt + ": micromaps[" + std::to_string(i) + "]";
-  auto fail = [&](const std::string& rule) -> Error { return d.fail(ErrorCode::CorruptFile, where + ": " + rule); };
+  auto fail = [&](const std::string& rule) -> Error {
+    return d.fail(ErrorCode::CorruptFile, where + ": " + rule);
+  };
   if (!m.is_object()) return fail("MUST be an object");
   int64_t dataView = -1, triView = -1;
-  if (!getInt(m, "data", dataView)) return fail("data is required and MUST be an integer (a bufferView index)");
+  if (!getInt(m, "data", dataView))
+    return fail("data is required and MUST be an integer (a bufferView index)");
   if (!getInt(m, "triangles", triView))
     return fail("triangles is required and MUST be an integer (a bufferView index)");
   std::vector<int64_t> counts, levels, formats;
-  if (!intArray(member(m, "usageCounts"), counts)) return fail("usageCounts is required and MUST be an integer array");
-  if (!intArray(member(m, "usageLevels"), levels)) return fail("usageLevels is required and MUST be an integer array");
+  if (!intArray(member(m, "usageCounts"), counts))
+    return fail("usageCounts is required and MUST be an integer array");
+  if (!intArray(member(m, "usageLevels"), levels))
+    return fail("usageLevels is required and MUST be an integer array");
   if (!intArray(member(m, "usageFormats"), formats))
     return fail("usageFormats is required and MUST be an integer array");
   if (counts.size() != levels.size() || counts.size() != formats.size())
@@ -210,11 +223,13 @@ Result<ArrayRead> readArray(Document& d, const json& m, size_t i) {
   if (!dv) return dv.error();
   auto tv = bufferView(d, triView, where + " triangles");
   if (!tv) return tv.error();
-  if (dv->hasStride) return fail("the data bufferView " + std::to_string(dataView) + " MUST NOT define byteStride");
+  if (dv->hasStride)
+    return fail("the data bufferView " + std::to_string(dataView) + " MUST NOT define byteStride");
   if (tv->hasStride)
     return fail("the triangles bufferView " + std::to_string(triView) + " MUST NOT define byteStride");
   if (tv->size % 8 != 0)
-    return fail("the triangles bufferView's byteLength " + std::to_string(tv->size) + " MUST be a multiple of 8");
+    return fail("the triangles bufferView's byteLength " + std::to_string(tv->size) +
+                " MUST be a multiple of 8");
   ArrayRead out;
   OmmArray& a = out.array;
   const size_t n = tv->size / 8;
@@ -234,7 +249,8 @@ Result<ArrayRead> readArray(Document& d, const json& m, size_t i) {
     const std::string rec = "triangle record " + std::to_string(r);
     if (t.subdivisionLevel > 12)
       return fail(rec + ": subdivisionLevel " + std::to_string(t.subdivisionLevel) + " MUST be in [0, 12]");
-    if (t.format != 1 && t.format != 2) return fail(rec + ": format " + std::to_string(t.format) + " MUST be 1 or 2");
+    if (t.format != 1 && t.format != 2)
+      return fail(rec + ": format " + std::to_string(t.format) + " MUST be 1 or 2");
     const uint64_t bytes = regionBytes(t.subdivisionLevel, t.format);
     if (uint64_t(t.dataOffset) + bytes > dv->size)
       return fail(rec + ": its region [" + std::to_string(t.dataOffset) + ", " +
@@ -250,9 +266,9 @@ Result<ArrayRead> readArray(Document& d, const json& m, size_t i) {
   for (uint32_t l = 0; l <= 12; ++l)
     for (uint32_t f = 1; f <= 2; ++f)
       if (usage[l][f] != pairCount[l][f])
-        return fail("usage entries count " + std::to_string(usage[l][f]) + " triangles of level " + std::to_string(l) +
-                    " format " + std::to_string(f) + " but " + std::to_string(pairCount[l][f]) +
-                    " records have that pair (the sums MUST be equal)");
+        return fail("usage entries count " + std::to_string(usage[l][f]) + " triangles of level " +
+                    std::to_string(l) + " format " + std::to_string(f) + " but " +
+                    std::to_string(pairCount[l][f]) + " records have that pair (the sums MUST be equal)");
   std::sort(regions.begin(), regions.end(), [](const Region& x, const Region& y) {
     return x.begin != y.begin ? x.begin < y.begin : x.record < y.record;
   });
@@ -364,10 +380,12 @@ Result<GltfMicromapsRead> readDocumentMicromaps(Document& d) {
     if (r.mode != 4)
       return fail(where + ": the primitive's mode is " + std::to_string(r.mode) + " (MUST be 4, TRIANGLES)");
     int64_t micromap = -1, base = 0;
-    if (!getInt(*x, "micromap", micromap)) return fail(where + ": micromap is required and MUST be an integer");
+    if (!getInt(*x, "micromap", micromap))
+      return fail(where + ": micromap is required and MUST be an integer");
     if (micromap < 0 || uint64_t(micromap) >= arrays.size())
-      return fail(where + ": micromap " + std::to_string(micromap) + " MUST be an index into the root micromaps (" +
-                  std::to_string(arrays.size()) + " entries)");
+      return fail(where + ": micromap " + std::to_string(micromap) +
+                  " MUST be an index into the root micromaps (" + std::to_string(arrays.size()) +
+                  " entries)");
     if (x->contains("micromapBaseTriangle") && (!getInt(*x, "micromapBaseTriangle", base) || base < 0))
       return fail(where + ": micromapBaseTriangle MUST be an integer >= 0");
     gi.array = uint32_t(micromap);
@@ -381,9 +399,10 @@ Result<GltfMicromapsRead> readDocumentMicromaps(Document& d) {
       }
       const uint64_t rec = uint64_t(m) + uint64_t(base);
       if (rec >= records)
-        return fail(where + ": triangle " + std::to_string(t) + " uses micromap triangle " + std::to_string(m) +
-                    " + micromapBaseTriangle " + std::to_string(base) + " = " + std::to_string(rec) +
-                    " (MUST be less than the " + std::to_string(records) + " triangle records)");
+        return fail(where + ": triangle " + std::to_string(t) + " uses micromap triangle " +
+                    std::to_string(m) + " + micromapBaseTriangle " + std::to_string(base) + " = " +
+                    std::to_string(rec) + " (MUST be less than the " + std::to_string(records) +
+                    " triangle records)");
       gi.indices[t] = int32_t(rec);
       return Ok{};
     };
@@ -421,7 +440,8 @@ Result<GltfMicromapsRead> readDocumentMicromaps(Document& d) {
         if ((bv->byteOffset + uint64_t(offset)) % uint64_t(size) != 0)
           return fail(an + ": its data MUST be aligned to its component size (glTF 2.0)");
         if (uint64_t(offset) > bv->size || uint64_t(count) * uint64_t(size) > bv->size - uint64_t(offset))
-          return fail(an + ": " + std::to_string(count) + " elements MUST fit in bufferView " + std::to_string(view));
+          return fail(an + ": " + std::to_string(count) + " elements MUST fit in bufferView " +
+                      std::to_string(view));
         base8 = bv->data + offset;
       }
       for (uint32_t t = 0; t < r.triangles; ++t) {
@@ -452,7 +472,8 @@ Result<GltfMicromapsRead> readDocumentMicromaps(Document& d) {
     if (const json* extras = member(*x, "extras")) {
       const json* s = member(*extras, "somm");
       const json* c = s ? member(*s, "cutoff") : nullptr;
-      if (c && c->is_number() && c->get<double>() >= 0 && c->get<double>() <= 1) info.cutoff = c->get<float>();
+      if (c && c->is_number() && c->get<double>() >= 0 && c->get<double>() <= 1)
+        info.cutoff = c->get<float>();
       const json* f = s ? member(*s, "filter") : nullptr;
       if (f && f->is_string()) {
         if (f->get<std::string>() == "nearest") info.sampler.filter = Filter::Nearest;

@@ -19,8 +19,8 @@ Result<MicromapSource> parseMicromapSource(const std::vector<uint8_t>& bytes, co
   const bool glb = bytes.size() >= 12 && std::memcmp(bytes.data(), "glTF", 4) == 0 && le32(4) == 2 &&
                    (le32(8) == bytes.size() || isGltfPath(path));
   size_t first = 0;
-  while (first < bytes.size() && (bytes[first] == ' ' || bytes[first] == '\t' || bytes[first] == '\r' ||
-                                  bytes[first] == '\n'))
+  while (first < bytes.size() &&
+         (bytes[first] == ' ' || bytes[first] == '\t' || bytes[first] == '\r' || bytes[first] == '\n'))
     ++first;
   const bool json = !glb && first < bytes.size() && bytes[first] == '{';
   if (!glb && !json) {
@@ -36,8 +36,9 @@ Result<MicromapSource> parseMicromapSource(const std::vector<uint8_t>& bytes, co
   auto read = parseGltfMicromaps(bytes, glb, path);
   if (!read) return read.error();
   if (!read->present)
-    return makeError(ErrorCode::UnsupportedFormat,
-                     path + ": a glTF without " + std::string(kGltfMicromapExtension) + " holds no micromaps");
+    return makeError(
+        ErrorCode::UnsupportedFormat,
+        path + ": a glTF without " + std::string(kGltfMicromapExtension) + " holds no micromaps");
   GltfMicromaps& m = read->value;
   src.container = kGltfMicromapExtension;
   src.file.sourcePath = path;  // the glTF holds the scene itself, in the same geometry numbering

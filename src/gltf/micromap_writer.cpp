@@ -80,8 +80,10 @@ Status writeFilesAtomically(const std::vector<std::pair<std::string, const std::
     while (good && done < bytes->size()) {
       const ssize_t w = ::write(fd, bytes->data() + done, bytes->size() - done);
       if (w < 0 && errno == EINTR) continue;
-      if (w < 0) good = false;
-      else done += size_t(w);
+      if (w < 0)
+        good = false;
+      else
+        done += size_t(w);
     }
     good = good && ::fsync(fd) == 0;
     const std::string why = std::strerror(errno);
@@ -93,7 +95,8 @@ Status writeFilesAtomically(const std::vector<std::pair<std::string, const std::
   }
   for (size_t i = 0; i < files.size(); ++i) {
     if (::rename(temps[i].c_str(), files[i].first.c_str()) != 0) {
-      const std::string msg = files[i].first + ": cannot rename the temporary file into place: " + std::strerror(errno);
+      const std::string msg =
+          files[i].first + ": cannot rename the temporary file into place: " + std::strerror(errno);
       for (size_t k = i; k < temps.size(); ++k) ::unlink(temps[k].c_str());
       return makeError(ErrorCode::IoError, msg);
     }
@@ -129,7 +132,8 @@ void layoutArray(const OmmArray& a, std::vector<TriangleDescriptor>& records, st
   bool good = true;
   for (const TriangleDescriptor& d : records) {
     const uint64_t n = regionBytes(d.subdivisionLevel, d.format);
-    if (d.subdivisionLevel > 12 || (d.format != 1 && d.format != 2) || d.dataOffset + n > data.size()) good = false;
+    if (d.subdivisionLevel > 12 || (d.format != 1 && d.format != 2) || d.dataOffset + n > data.size())
+      good = false;
     rs.push_back(R{d.dataOffset, d.dataOffset + n});
   }
   std::sort(rs.begin(), rs.end(), [](const R& x, const R& y) { return x.b < y.b; });
@@ -160,7 +164,9 @@ bool isGltfPath(const std::string& path) {
 Status writeGltfMicromaps(const std::string& outPath, const std::string& scenePath, const Scene& scene,
                           const SceneMicromaps& micromaps, const std::vector<GeometryInfo>& info,
                           const GltfWriteOptions& options) {
-  auto fail = [&](ErrorCode c, const std::string& what) -> Error { return makeError(c, outPath + ": " + what); };
+  auto fail = [&](ErrorCode c, const std::string& what) -> Error {
+    return makeError(c, outPath + ": " + what);
+  };
   const std::string ext = kGltfMicromapExtension;
   const bool outBinary = endsWith(lower(outPath), ".glb");
   if (!outBinary && !endsWith(lower(outPath), ".gltf"))
@@ -174,8 +180,8 @@ Status writeGltfMicromaps(const std::string& outPath, const std::string& scenePa
         micromaps.geometries[g].array >= micromaps.arrays.size() ||
         uint64_t(micromaps.geometries[g].firstTriangle) + micromaps.geometries[g].triangleCount >
             micromaps.arrays[micromaps.geometries[g].array].indices.size())
-      return fail(ErrorCode::InvalidArgument, "the micromaps of geometry " + std::to_string(g) +
-                                                  " do not match its triangles");
+      return fail(ErrorCode::InvalidArgument,
+                  "the micromaps of geometry " + std::to_string(g) + " do not match its triangles");
 
   // ---- the document to extend ----
   const bool gltfInput = isGltfPath(scenePath);
@@ -203,7 +209,8 @@ Status writeGltfMicromaps(const std::string& outPath, const std::string& scenePa
   if (!prims) return prims.error();
   if (prims->size() != G)
     return fail(ErrorCode::InvalidArgument, scenePath + " has " + std::to_string(prims->size()) +
-                                                " primitives, the scene " + std::to_string(G) + " geometries");
+                                                " primitives, the scene " + std::to_string(G) +
+                                                " geometries");
   for (size_t g = 0; g < G; ++g)
     if ((*prims)[g].triangles != scene.geometries[g].triangleCount() && (*prims)[g].mode == 4)
       return fail(ErrorCode::InvalidArgument, scenePath + ": primitive of geometry " + std::to_string(g) +
@@ -239,7 +246,9 @@ Status writeGltfMicromaps(const std::string& outPath, const std::string& scenePa
   fs::path binPath = outAbs;
   binPath.replace_extension(".bin");
   const std::string binUri = gltfdoc::percentEncodePath(binPath.filename().string());
-  auto resolved = [&](const std::string& uri) { return (inDir / fs::path(gltfdoc::percentDecode(uri))).lexically_normal(); };
+  auto resolved = [&](const std::string& uri) {
+    return (inDir / fs::path(gltfdoc::percentDecode(uri))).lexically_normal();
+  };
   long carrier = -1;
   if (outBinary) {
     if (!buffers.empty()) carrier = 0;
@@ -310,12 +319,16 @@ Status writeGltfMicromaps(const std::string& outPath, const std::string& scenePa
     }
     const size_t dv = addView(data, 8);
     const size_t tv = addView(recBytes, 8);
-    json m = {{"data", dv}, {"triangles", tv}, {"usageCounts", counts}, {"usageLevels", levels},
+    json m = {{"data", dv},
+              {"triangles", tv},
+              {"usageCounts", counts},
+              {"usageLevels", levels},
               {"usageFormats", formats}};
     if (a == 0 && (!options.toolVersion.empty() || !options.bakeOptions.empty())) {
       json bo = json::array();  // [key, value] pairs, in order
       for (const auto& [k, v] : options.bakeOptions) bo.push_back({k, v});
-      m["extras"] = {{"somm", {{"tool", options.toolVersion}, {"source", options.sourcePath}, {"bakeOptions", bo}}}};
+      m["extras"] = {
+          {"somm", {{"tool", options.toolVersion}, {"source", options.sourcePath}, {"bakeOptions", bo}}}};
     }
     list.push_back(std::move(m));
   }
@@ -349,7 +362,9 @@ Status writeGltfMicromaps(const std::string& outPath, const std::string& scenePa
       }
       const size_t view = addView(bytes, 4);
       accessors.push_back({{"bufferView", view},
-                           {"componentType", size == 1 ? 5121 : size == 2 ? 5123 : 5125},
+                           {"componentType", size == 1   ? 5121
+                                             : size == 2 ? 5123
+                                                         : 5125},
                            {"count", n},
                            {"type", "SCALAR"}});
       x["micromapIndices"] = accessors.size() - 1;
@@ -377,9 +392,11 @@ Status writeGltfMicromaps(const std::string& outPath, const std::string& scenePa
   buffers[size_t(carrier)]["byteLength"] = bin.size();
 
   // extensionsUsed lists it; extensionsRequired never does.
-  if (!root.contains("extensionsUsed") || !root["extensionsUsed"].is_array()) root["extensionsUsed"] = json::array();
+  if (!root.contains("extensionsUsed") || !root["extensionsUsed"].is_array())
+    root["extensionsUsed"] = json::array();
   bool listed = false;
-  for (const json& u : root["extensionsUsed"]) listed = listed || (u.is_string() && u.get<std::string>() == ext);
+  for (const json& u : root["extensionsUsed"])
+    listed = listed || (u.is_string() && u.get<std::string>() == ext);
   if (!listed) root["extensionsUsed"].push_back(ext);
 
   // ---- serialise ----

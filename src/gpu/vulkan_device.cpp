@@ -17,61 +17,64 @@
 
 namespace somm::gpu {
 
-const char* shaderLanguageName(ShaderLanguage l) noexcept { return l == ShaderLanguage::Glsl ? "glsl" : "hlsl"; }
+const char* shaderLanguageName(ShaderLanguage l) noexcept {
+  return l == ShaderLanguage::Glsl ? "glsl" : "hlsl";
+}
 
 namespace {
 
-#define SOMM_VK_INSTANCE_FNS(X)                 \
-  X(vkDestroyInstance)                          \
-  X(vkEnumeratePhysicalDevices)                 \
-  X(vkGetPhysicalDeviceProperties)              \
-  X(vkGetPhysicalDeviceQueueFamilyProperties)   \
-  X(vkGetPhysicalDeviceMemoryProperties)        \
-  X(vkCreateDevice)                             \
+#define SOMM_VK_INSTANCE_FNS(X)               \
+  X(vkDestroyInstance)                        \
+  X(vkEnumeratePhysicalDevices)               \
+  X(vkGetPhysicalDeviceProperties)            \
+  X(vkGetPhysicalDeviceQueueFamilyProperties) \
+  X(vkGetPhysicalDeviceMemoryProperties)      \
+  X(vkCreateDevice)                           \
   X(vkGetDeviceProcAddr)
 
-#define SOMM_VK_DEVICE_FNS(X)         \
-  X(vkDestroyDevice)                  \
-  X(vkDeviceWaitIdle)                 \
-  X(vkGetDeviceQueue)                 \
-  X(vkCreateBuffer)                   \
-  X(vkDestroyBuffer)                  \
-  X(vkGetBufferMemoryRequirements)    \
-  X(vkAllocateMemory)                 \
-  X(vkFreeMemory)                     \
-  X(vkBindBufferMemory)               \
-  X(vkMapMemory)                      \
-  X(vkUnmapMemory)                    \
-  X(vkCreateShaderModule)             \
-  X(vkDestroyShaderModule)            \
-  X(vkCreateDescriptorSetLayout)      \
-  X(vkDestroyDescriptorSetLayout)     \
-  X(vkCreatePipelineLayout)           \
-  X(vkDestroyPipelineLayout)          \
-  X(vkCreateComputePipelines)         \
-  X(vkDestroyPipeline)                \
-  X(vkCreateDescriptorPool)           \
-  X(vkDestroyDescriptorPool)          \
-  X(vkAllocateDescriptorSets)         \
-  X(vkUpdateDescriptorSets)           \
-  X(vkCreateCommandPool)              \
-  X(vkDestroyCommandPool)             \
-  X(vkAllocateCommandBuffers)         \
-  X(vkBeginCommandBuffer)             \
-  X(vkEndCommandBuffer)               \
-  X(vkCmdBindPipeline)                \
-  X(vkCmdBindDescriptorSets)          \
-  X(vkCmdPushConstants)               \
-  X(vkCmdDispatch)                    \
-  X(vkCmdPipelineBarrier)             \
-  X(vkQueueSubmit)                    \
-  X(vkCreateFence)                    \
-  X(vkDestroyFence)                   \
-  X(vkWaitForFences)                  \
+#define SOMM_VK_DEVICE_FNS(X)      \
+  X(vkDestroyDevice)               \
+  X(vkDeviceWaitIdle)              \
+  X(vkGetDeviceQueue)              \
+  X(vkCreateBuffer)                \
+  X(vkDestroyBuffer)               \
+  X(vkGetBufferMemoryRequirements) \
+  X(vkAllocateMemory)              \
+  X(vkFreeMemory)                  \
+  X(vkBindBufferMemory)            \
+  X(vkMapMemory)                   \
+  X(vkUnmapMemory)                 \
+  X(vkCreateShaderModule)          \
+  X(vkDestroyShaderModule)         \
+  X(vkCreateDescriptorSetLayout)   \
+  X(vkDestroyDescriptorSetLayout)  \
+  X(vkCreatePipelineLayout)        \
+  X(vkDestroyPipelineLayout)       \
+  X(vkCreateComputePipelines)      \
+  X(vkDestroyPipeline)             \
+  X(vkCreateDescriptorPool)        \
+  X(vkDestroyDescriptorPool)       \
+  X(vkAllocateDescriptorSets)      \
+  X(vkUpdateDescriptorSets)        \
+  X(vkCreateCommandPool)           \
+  X(vkDestroyCommandPool)          \
+  X(vkAllocateCommandBuffers)      \
+  X(vkBeginCommandBuffer)          \
+  X(vkEndCommandBuffer)            \
+  X(vkCmdBindPipeline)             \
+  X(vkCmdBindDescriptorSets)       \
+  X(vkCmdPushConstants)            \
+  X(vkCmdDispatch)                 \
+  X(vkCmdPipelineBarrier)          \
+  X(vkQueueSubmit)                 \
+  X(vkCreateFence)                 \
+  X(vkDestroyFence)                \
+  X(vkWaitForFences)               \
   X(vkResetFences)
 
 Error vkError(const std::string& what, VkResult r) {
-  return makeError(ErrorCode::IoError, "Vulkan: " + what + " failed (VkResult " + std::to_string(int(r)) + ")");
+  return makeError(ErrorCode::IoError,
+                   "Vulkan: " + what + " failed (VkResult " + std::to_string(int(r)) + ")");
 }
 
 struct PushConstants {
@@ -143,15 +146,19 @@ struct Device::Impl {
     lib = dlopen("libvulkan.so.1", RTLD_NOW | RTLD_LOCAL);
     if (!lib) lib = dlopen("libvulkan.so", RTLD_NOW | RTLD_LOCAL);
     if (!lib)
-      return makeError(ErrorCode::UnsupportedFormat,
-                       "no Vulkan device: the Vulkan loader libvulkan.so.1 is not installed (Debian: libvulkan1, and "
-                       "mesa-vulkan-drivers for the lavapipe CPU device)");
+      return makeError(
+          ErrorCode::UnsupportedFormat,
+          "no Vulkan device: the Vulkan loader libvulkan.so.1 is not installed (Debian: libvulkan1, and "
+          "mesa-vulkan-drivers for the lavapipe CPU device)");
     vkGetInstanceProcAddr = reinterpret_cast<PFN_vkGetInstanceProcAddr>(dlsym(lib, "vkGetInstanceProcAddr"));
     if (!vkGetInstanceProcAddr)
-      return makeError(ErrorCode::UnsupportedFormat, "no Vulkan device: libvulkan.so.1 has no vkGetInstanceProcAddr");
-    vkCreateInstance = reinterpret_cast<PFN_vkCreateInstance>(vkGetInstanceProcAddr(nullptr, "vkCreateInstance"));
+      return makeError(ErrorCode::UnsupportedFormat,
+                       "no Vulkan device: libvulkan.so.1 has no vkGetInstanceProcAddr");
+    vkCreateInstance =
+        reinterpret_cast<PFN_vkCreateInstance>(vkGetInstanceProcAddr(nullptr, "vkCreateInstance"));
     if (!vkCreateInstance)
-      return makeError(ErrorCode::UnsupportedFormat, "no Vulkan device: the loader exports no vkCreateInstance");
+      return makeError(ErrorCode::UnsupportedFormat,
+                       "no Vulkan device: the loader exports no vkCreateInstance");
 
     VkApplicationInfo app{};
     app.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO;
@@ -164,19 +171,21 @@ struct Device::Impl {
     if (VkResult r = vkCreateInstance(&ici, nullptr, &instance); r != VK_SUCCESS) {
       instance = VK_NULL_HANDLE;
       if (r == VK_ERROR_INCOMPATIBLE_DRIVER)
-        return makeError(ErrorCode::UnsupportedFormat,
-                         "no Vulkan device: no Vulkan driver is installed (Debian: mesa-vulkan-drivers provides the "
-                         "lavapipe CPU device)");
+        return makeError(
+            ErrorCode::UnsupportedFormat,
+            "no Vulkan device: no Vulkan driver is installed (Debian: mesa-vulkan-drivers provides the "
+            "lavapipe CPU device)");
       return vkError("vkCreateInstance", r);
     }
-#define SOMM_LOAD_INSTANCE(f)                                                      \
-  f = reinterpret_cast<PFN_##f>(vkGetInstanceProcAddr(instance, #f));              \
+#define SOMM_LOAD_INSTANCE(f)                                         \
+  f = reinterpret_cast<PFN_##f>(vkGetInstanceProcAddr(instance, #f)); \
   if (!f) return makeError(ErrorCode::UnsupportedFormat, "Vulkan: the loader has no " #f);
     SOMM_VK_INSTANCE_FNS(SOMM_LOAD_INSTANCE)
 #undef SOMM_LOAD_INSTANCE
 
     uint32_t count = 0;
-    if (VkResult r = vkEnumeratePhysicalDevices(instance, &count, nullptr); r != VK_SUCCESS && r != VK_INCOMPLETE)
+    if (VkResult r = vkEnumeratePhysicalDevices(instance, &count, nullptr);
+        r != VK_SUCCESS && r != VK_INCOMPLETE)
       return vkError("vkEnumeratePhysicalDevices", r);
     std::vector<VkPhysicalDevice> devices(count);
     if (count) vkEnumeratePhysicalDevices(instance, &count, devices.data());
@@ -232,13 +241,13 @@ struct Device::Impl {
       device = VK_NULL_HANDLE;
       return vkError("vkCreateDevice on " + name, r);
     }
-#define SOMM_LOAD_DEVICE(f)                                                          \
-  f = reinterpret_cast<PFN_##f>(vkGetDeviceProcAddr(device, #f));                    \
-  if (!f) {                                                                          \
+#define SOMM_LOAD_DEVICE(f)                                                                               \
+  f = reinterpret_cast<PFN_##f>(vkGetDeviceProcAddr(device, #f));                                         \
+  if (!f) {                                                                                               \
     auto destroy = reinterpret_cast<PFN_vkDestroyDevice>(vkGetDeviceProcAddr(device, "vkDestroyDevice")); \
-    if (destroy) destroy(device, nullptr);                                           \
-    device = VK_NULL_HANDLE;                                                         \
-    return makeError(ErrorCode::UnsupportedFormat, "Vulkan: the device has no " #f); \
+    if (destroy) destroy(device, nullptr);                                                                \
+    device = VK_NULL_HANDLE;                                                                              \
+    return makeError(ErrorCode::UnsupportedFormat, "Vulkan: the device has no " #f);                      \
   }
     SOMM_VK_DEVICE_FNS(SOMM_LOAD_DEVICE)
 #undef SOMM_LOAD_DEVICE
@@ -346,7 +355,8 @@ struct Device::Impl {
       return vkError("vkCreateBuffer (" + std::to_string(size) + " bytes)", r);
     VkMemoryRequirements req;
     vkGetBufferMemoryRequirements(device, b.buffer, &req);
-    const VkMemoryPropertyFlags need = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+    const VkMemoryPropertyFlags need =
+        VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
     int type = -1;
     for (int pass = 0; pass < 2 && type < 0; ++pass)
       for (uint32_t i = 0; i < memory.memoryTypeCount; ++i) {
@@ -359,7 +369,8 @@ struct Device::Impl {
       }
     if (type < 0) {
       vkDestroyBuffer(device, b.buffer, nullptr);
-      return makeError(ErrorCode::UnsupportedFormat, "Vulkan: " + name + " has no host-visible coherent memory");
+      return makeError(ErrorCode::UnsupportedFormat,
+                       "Vulkan: " + name + " has no host-visible coherent memory");
     }
     VkMemoryAllocateInfo mai{};
     mai.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
@@ -395,7 +406,9 @@ Result<Device> Device::open() {
   return Device(std::move(impl));
 }
 
-const std::string& Device::name() const noexcept { return impl_->name; }
+const std::string& Device::name() const noexcept {
+  return impl_->name;
+}
 
 const char* Device::typeName() const noexcept {
   switch (impl_->type) {
@@ -412,8 +425,9 @@ const char* Device::typeName() const noexcept {
   }
 }
 
-Result<std::vector<uint32_t>> Device::run(ShaderLanguage language, LookupMode mode, const std::vector<uint8_t>& buffer,
-                                          uint32_t base, const std::vector<Query>& queries, uint32_t repeats,
+Result<std::vector<uint32_t>> Device::run(ShaderLanguage language, LookupMode mode,
+                                          const std::vector<uint8_t>& buffer, uint32_t base,
+                                          const std::vector<Query>& queries, uint32_t repeats,
                                           double* seconds) {
   Impl& d = *impl_;
   std::vector<uint32_t> results(queries.size());
@@ -443,9 +457,8 @@ Result<std::vector<uint32_t>> Device::run(ShaderLanguage language, LookupMode mo
   std::memcpy(in->mapped, queries.data(), queries.size() * sizeof(Query));
   std::memset(out->mapped, 0xff, queries.size() * sizeof(uint32_t));
 
-  VkDescriptorBufferInfo infos[3] = {{arrays->buffer, 0, VK_WHOLE_SIZE},
-                                     {in->buffer, 0, VK_WHOLE_SIZE},
-                                     {out->buffer, 0, VK_WHOLE_SIZE}};
+  VkDescriptorBufferInfo infos[3] = {
+      {arrays->buffer, 0, VK_WHOLE_SIZE}, {in->buffer, 0, VK_WHOLE_SIZE}, {out->buffer, 0, VK_WHOLE_SIZE}};
   VkWriteDescriptorSet writes[3]{};
   for (uint32_t i = 0; i < 3; ++i) {
     writes[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
@@ -466,15 +479,16 @@ Result<std::vector<uint32_t>> Device::run(ShaderLanguage language, LookupMode mo
   begin.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO;
   d.vkBeginCommandBuffer(d.commands, &begin);
   d.vkCmdBindPipeline(d.commands, VK_PIPELINE_BIND_POINT_COMPUTE, d.pipelines[int(language)]);
-  d.vkCmdBindDescriptorSets(d.commands, VK_PIPELINE_BIND_POINT_COMPUTE, d.pipelineLayout, 0, 1, &d.set, 0, nullptr);
+  d.vkCmdBindDescriptorSets(d.commands, VK_PIPELINE_BIND_POINT_COMPUTE, d.pipelineLayout, 0, 1, &d.set, 0,
+                            nullptr);
   d.vkCmdPushConstants(d.commands, d.pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof pc, &pc);
   d.vkCmdDispatch(d.commands, groupsX, groupsY, 1);
   VkMemoryBarrier barrier{};
   barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
   barrier.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
   barrier.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-  d.vkCmdPipelineBarrier(d.commands, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &barrier,
-                         0, nullptr, 0, nullptr);
+  d.vkCmdPipelineBarrier(d.commands, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1,
+                         &barrier, 0, nullptr, 0, nullptr);
   d.vkEndCommandBuffer(d.commands);
 
   Status status = Ok{};

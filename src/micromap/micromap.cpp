@@ -9,13 +9,20 @@ namespace somm {
 
 const char* errorCodeName(ErrorCode code) noexcept {
   switch (code) {
-    case ErrorCode::InvalidArgument: return "invalid argument";
-    case ErrorCode::ParseError: return "parse error";
-    case ErrorCode::IoError: return "I/O error";
-    case ErrorCode::CorruptFile: return "corrupt file";
-    case ErrorCode::UnsupportedFormat: return "unsupported format";
-    case ErrorCode::LimitExceeded: return "limit exceeded";
-    case ErrorCode::Cancelled: return "cancelled";
+    case ErrorCode::InvalidArgument:
+      return "invalid argument";
+    case ErrorCode::ParseError:
+      return "parse error";
+    case ErrorCode::IoError:
+      return "I/O error";
+    case ErrorCode::CorruptFile:
+      return "corrupt file";
+    case ErrorCode::UnsupportedFormat:
+      return "unsupported format";
+    case ErrorCode::LimitExceeded:
+      return "limit exceeded";
+    case ErrorCode::Cancelled:
+      return "cancelled";
   }
   return "error";
 }

@@ -82,7 +82,9 @@ State OmmArray::stateUV(uint32_t triangle, float u, float v) const noexcept {
   return readPackedState(data.data() + d.dataOffset, Format(d.format), baryToIndex(u, v, d.subdivisionLevel));
 }
 
-void OmmArrayBuilder::addSpecial(State s) { array_.indices.push_back(specialIndexFor(s)); }
+void OmmArrayBuilder::addSpecial(State s) {
+  array_.indices.push_back(specialIndexFor(s));
+}
 
 void OmmArrayBuilder::grow() {
   std::vector<std::vector<Slot>> next(buckets_.size() * 4);

@@ -2,7 +2,7 @@
 // somm — glTF 2.0 (.gltf / .glb) loading via tinygltf. tinygltf parses the JSON and the buffers; everything
 // else (accessor bounds, images, node hierarchy) is validated and converted here, so malformed files give
 // errors, not crashes.
-#include <nlohmann/json.hpp>
+#include <sys/stat.h>
 #include <tiny_gltf.h>
 
 #include <algorithm>
@@ -12,9 +12,8 @@
 #include <filesystem>
 #include <map>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <utility>
-
-#include <sys/stat.h>
 
 #include "image_io.h"
 #include "loaders.h"
@@ -91,8 +90,9 @@ bool existsNoOpen(const std::string& p, void*) {
 bool isImagePath(const std::string& p) {
   std::string ext = std::filesystem::path(p).extension().string();
   for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
-  return ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".tga" || ext == ".bmp" || ext == ".gif" ||
-         ext == ".psd" || ext == ".hdr" || ext == ".pic" || ext == ".pnm" || ext == ".ppm" || ext == ".pgm";
+  return ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".tga" || ext == ".bmp" ||
+         ext == ".gif" || ext == ".psd" || ext == ".hdr" || ext == ".pic" || ext == ".pnm" || ext == ".ppm" ||
+         ext == ".pgm";
 }
 
 // External buffers and images: regular files only, at most the cap of their kind.
@@ -116,15 +116,19 @@ uint32_t jsonDepth(const char* p, size_t n, uint32_t limit) {
   for (size_t i = 0; i < n; ++i) {
     const char c = p[i];
     if (inString) {
-      if (c == '\\') ++i;
-      else if (c == '"') inString = false;
+      if (c == '\\')
+        ++i;
+      else if (c == '"')
+        inString = false;
       continue;
     }
-    if (c == '"') inString = true;
+    if (c == '"')
+      inString = true;
     else if (c == '[' || c == '{') {
       deepest = std::max(deepest, ++depth);
       if (deepest > limit) return deepest;
-    } else if ((c == ']' || c == '}') && depth > 0) --depth;
+    } else if ((c == ']' || c == '}') && depth > 0)
+      --depth;
   }
   return deepest;
 }
@@ -538,9 +542,10 @@ Status GltfLoader::loadGeometries() {
       if (n > 0xFFFFFFFFu) return fail(ErrorCode::LimitExceeded, what + ": too many vertices");
       // Memory bound: primitives may share accessors, so the vertices and indices materialised over the whole scene
       // are capped at a multiple of the buffer bytes (a small file must not expand to gigabytes).
-      if (Status b = charge(what, n, prim.indices >= 0 && size_t(prim.indices) < model_.accessors.size()
-                                         ? model_.accessors[size_t(prim.indices)].count
-                                         : n);
+      if (Status b = charge(what, n,
+                            prim.indices >= 0 && size_t(prim.indices) < model_.accessors.size()
+                                ? model_.accessors[size_t(prim.indices)].count
+                                : n);
           !b.ok())
         return b;
       g.positions.resize(n * 3);
@@ -651,8 +656,9 @@ Status GltfLoader::loadInstances() {
                                                   std::to_string(n.mesh) + " does not exist");
         const size_t prims = model_.meshes[size_t(n.mesh)].primitives.size();
         if (prims > opts_.limits.instances || scene_.instances.size() > opts_.limits.instances - prims)
-          return fail(ErrorCode::LimitExceeded, "the scene has more than " + std::to_string(opts_.limits.instances) +
-                                                    " instances, " + limitHint("instances", opts_.limits.instances));
+          return fail(ErrorCode::LimitExceeded, "the scene has more than " +
+                                                    std::to_string(opts_.limits.instances) + " instances, " +
+                                                    limitHint("instances", opts_.limits.instances));
         std::array<float, 16> transform;
         for (int k = 0; k < 16; ++k) transform[size_t(k)] = narrow(world[size_t(k)]);
         if (prims > 0 && !isUsableTransform(transform))
@@ -721,7 +727,8 @@ Result<Scene> GltfLoader::run(bool binary) {
   size_t jsonSize = bytes.size();
   if (binary) {
     auto le32 = [&](size_t o) {
-      return uint32_t(bytes[o]) | uint32_t(bytes[o + 1]) << 8 | uint32_t(bytes[o + 2]) << 16 | uint32_t(bytes[o + 3]) << 24;
+      return uint32_t(bytes[o]) | uint32_t(bytes[o + 1]) << 8 | uint32_t(bytes[o + 2]) << 16 |
+             uint32_t(bytes[o + 3]) << 24;
     };
     if (bytes.size() < 20 || std::memcmp(bytes.data(), "glTF", 4) != 0)
       return fail(ErrorCode::CorruptFile, "not a GLB file (no 'glTF' magic)");
@@ -735,7 +742,8 @@ Result<Scene> GltfLoader::run(bool binary) {
   if (bytes.size() > 0xFFFFFFFFu)
     return fail(ErrorCode::LimitExceeded, "larger than 4 GiB, more than glTF can address");
   if (const uint32_t d = jsonDepth(json, jsonSize, opts_.limits.jsonDepth); d > opts_.limits.jsonDepth)
-    return fail(ErrorCode::LimitExceeded, "JSON nested deeper than " + limitHint("json-depth", opts_.limits.jsonDepth));
+    return fail(ErrorCode::LimitExceeded,
+                "JSON nested deeper than " + limitHint("json-depth", opts_.limits.jsonDepth));
   {
     const nlohmann::json doc = nlohmann::json::parse(json, json + jsonSize, nullptr, false);
     if (!doc.is_discarded()) {
@@ -766,7 +774,8 @@ Result<Scene> GltfLoader::run(bool binary) {
   bool ok = false;
   const std::string baseDir = std::filesystem::path(path_).parent_path().string();
   try {
-    ok = binary ? loader.LoadBinaryFromMemory(&model_, &err, &warn, bytes.data(), unsigned(bytes.size()), baseDir)
+    ok = binary ? loader.LoadBinaryFromMemory(&model_, &err, &warn, bytes.data(), unsigned(bytes.size()),
+                                              baseDir)
                 : loader.LoadASCIIFromString(&model_, &err, &warn, json, unsigned(jsonSize), baseDir);
   } catch (const std::bad_alloc&) {
     err = "out of memory while parsing";

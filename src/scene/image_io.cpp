@@ -135,7 +135,8 @@ Result<RawImage> decodeImage(const uint8_t* data, size_t size, const Limits& lim
   if (size == 0) return makeError(ErrorCode::CorruptFile, "empty image data");
   if (size > size_t(INT_MAX)) return makeError(ErrorCode::LimitExceeded, "image data larger than 2 GiB");
   const int n = int(size);
-  if (std::string why = pngChunkProblem(data, size); !why.empty()) return makeError(ErrorCode::CorruptFile, why);
+  if (std::string why = pngChunkProblem(data, size); !why.empty())
+    return makeError(ErrorCode::CorruptFile, why);
   if (!jpegHuffmanTablesValid(data, size))
     return makeError(ErrorCode::CorruptFile, "corrupt JPEG: a Huffman table declares more than 256 codes");
   int w = 0, h = 0, comp = 0;
@@ -148,20 +149,24 @@ Result<RawImage> decodeImage(const uint8_t* data, size_t size, const Limits& lim
     return makeError(ErrorCode::CorruptFile, "image has invalid dimensions or channel count");
   if (uint64_t(w) * uint64_t(h) > limits.imagePixels)
     return makeError(ErrorCode::LimitExceeded, "image of " + std::to_string(w) + "x" + std::to_string(h) +
-                                                   " texels exceeds " + limitHint("image-pixels", limits.imagePixels));
+                                                   " texels exceeds " +
+                                                   limitHint("image-pixels", limits.imagePixels));
   // What decoding costs: the decoder's buffer, our 16-bit copy and the alpha/colour textures made from it.
   const uint64_t cost = uint64_t(w) * uint64_t(h) * (uint64_t(comp) * 3 + 8);
   if (decodedBytes) {
     if (*decodedBytes + cost > limits.decodedImageBytes)
       return makeError(ErrorCode::LimitExceeded,
-                       "decoding this " + std::to_string(w) + "x" + std::to_string(h) + " image would bring the scene's "
-                       "decoded images to " + std::to_string(*decodedBytes + cost) + " bytes, more than " +
-                       limitHint("decoded-bytes", limits.decodedImageBytes));
+                       "decoding this " + std::to_string(w) + "x" + std::to_string(h) +
+                           " image would bring the scene's "
+                           "decoded images to " +
+                           std::to_string(*decodedBytes + cost) + " bytes, more than " +
+                           limitHint("decoded-bytes", limits.decodedImageBytes));
     *decodedBytes += cost;
   }
   std::vector<uint8_t> padded = padPalette(data, size);
   if (!padded.empty()) {
-    if (padded.size() > size_t(INT_MAX)) return makeError(ErrorCode::LimitExceeded, "image data larger than 2 GiB");
+    if (padded.size() > size_t(INT_MAX))
+      return makeError(ErrorCode::LimitExceeded, "image data larger than 2 GiB");
     data = padded.data();
     size = padded.size();
   }
@@ -170,9 +175,9 @@ Result<RawImage> decodeImage(const uint8_t* data, size_t size, const Limits& lim
     return makeError(ErrorCode::LimitExceeded, "image of " + std::to_string(w) + "x" + std::to_string(h) +
                                                    " texels is larger than supported");
   if (uint64_t(w) * uint64_t(h) * uint64_t(comp) > kFreeSamples + kMaxExpansion * uint64_t(size))
-    return makeError(ErrorCode::LimitExceeded, "image declares " + std::to_string(w) + "x" + std::to_string(h) +
-                                                   " texels but its " + std::to_string(size) +
-                                                   " bytes cannot hold that many (truncated or corrupt)");
+    return makeError(ErrorCode::LimitExceeded,
+                     "image declares " + std::to_string(w) + "x" + std::to_string(h) + " texels but its " +
+                         std::to_string(size) + " bytes cannot hold that many (truncated or corrupt)");
   RawImage img;
   const bool is16 = stbi_is_16_bit_from_memory(data, n2) != 0;
   int w2 = 0, h2 = 0, c2 = 0;
@@ -180,8 +185,7 @@ Result<RawImage> decodeImage(const uint8_t* data, size_t size, const Limits& lim
     std::unique_ptr<stbi_us, StbiFree> p(stbi_load_16_from_memory(data, n2, &w2, &h2, &c2, 0));
     if (!p) {
       const char* why = stbi_failure_reason();
-      return makeError(ErrorCode::CorruptFile,
-                       "cannot decode image (" + oneLine(why ? why : "?") + ")");
+      return makeError(ErrorCode::CorruptFile, "cannot decode image (" + oneLine(why ? why : "?") + ")");
     }
     img.width = uint32_t(w2), img.height = uint32_t(h2), img.channels = uint32_t(c2), img.sixteenBit = true;
     img.px.assign(p.get(), p.get() + size_t(w2) * size_t(h2) * size_t(c2));
@@ -189,8 +193,7 @@ Result<RawImage> decodeImage(const uint8_t* data, size_t size, const Limits& lim
     std::unique_ptr<stbi_uc, StbiFree> p(stbi_load_from_memory(data, n2, &w2, &h2, &c2, 0));
     if (!p) {
       const char* why = stbi_failure_reason();
-      return makeError(ErrorCode::CorruptFile,
-                       "cannot decode image (" + oneLine(why ? why : "?") + ")");
+      return makeError(ErrorCode::CorruptFile, "cannot decode image (" + oneLine(why ? why : "?") + ")");
     }
     img.width = uint32_t(w2), img.height = uint32_t(h2), img.channels = uint32_t(c2);
     const size_t count = size_t(w2) * size_t(h2) * size_t(c2);

@@ -186,8 +186,9 @@ Status ObjLoader::material(const tinyobj::material_t& tm, Material& m) {
       return r.error();
     } else {
       // A missing JPEG holds no alpha: the material is drawn opaque (untextured), as an engine would.
-      scene_.warnings.push_back("material '" + m.name + "': map_Kd texture '" + kdPath +
-                                "' is missing; a JPEG carries no alpha, so the material is drawn opaque without it");
+      scene_.warnings.push_back(
+          "material '" + m.name + "': map_Kd texture '" + kdPath +
+          "' is missing; a JPEG carries no alpha, so the material is drawn opaque without it");
     }
   }
   if (!tm.alpha_texname.empty()) {
@@ -251,8 +252,8 @@ Result<Scene> ObjLoader::run() {
   bytes->shrink_to_fit();
   std::string badToken;
   if (const size_t line = badIndexLine(text, badToken))
-    return fail(ErrorCode::CorruptFile,
-                "line " + std::to_string(line) + ": index " + badToken + " is out of range (at most 2^31 - 1)");
+    return fail(ErrorCode::CorruptFile, "line " + std::to_string(line) + ": index " + badToken +
+                                            " is out of range (at most 2^31 - 1)");
   tinyobj::attrib_t attrib;
   std::vector<tinyobj::shape_t> shapes;
   std::vector<tinyobj::material_t> mats;
@@ -329,13 +330,14 @@ Result<Scene> ObjLoader::run() {
         const tinyobj::index_t& ix = mesh.indices[offset + k];
         if (ix.vertex_index < 0 || size_t(ix.vertex_index) >= nv)
           return fail(ErrorCode::CorruptFile, "face " + std::to_string(f + 1) + " of shape '" + shapeName +
-                                                 "' refers to vertex " + std::to_string(ix.vertex_index + 1) +
-                                                 " but the file has " + std::to_string(nv) + " vertices");
+                                                  "' refers to vertex " +
+                                                  std::to_string(ix.vertex_index + 1) + " but the file has " +
+                                                  std::to_string(nv) + " vertices");
         if (ix.texcoord_index >= 0 && size_t(ix.texcoord_index) >= nt)
-          return fail(ErrorCode::CorruptFile, "face " + std::to_string(f + 1) + " of shape '" + shapeName +
-                                                 "' refers to texture coordinate " +
-                                                 std::to_string(ix.texcoord_index + 1) + " but the file has " +
-                                                 std::to_string(nt) + " texture coordinates");
+          return fail(ErrorCode::CorruptFile,
+                      "face " + std::to_string(f + 1) + " of shape '" + shapeName +
+                          "' refers to texture coordinate " + std::to_string(ix.texcoord_index + 1) +
+                          " but the file has " + std::to_string(nt) + " texture coordinates");
         const uint64_t vkey = (uint64_t(uint32_t(ix.vertex_index)) << 32) | uint32_t(ix.texcoord_index);
         auto [vit, inserted] = b.remap.emplace(vkey, uint32_t(g.positions.size() / 3));
         if (inserted) {

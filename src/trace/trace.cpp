@@ -1,6 +1,5 @@
 // SPDX-License-Identifier: MIT
 // somm_trace: Embree scene, any-hit filter functions per method, the render workload.
-#include "somm/io.h"
 #include "somm/trace.h"
 
 #include <embree3/rtcore.h>
@@ -16,9 +15,10 @@
 #include <map>
 #include <optional>
 
-#include "somm/encode.h"
 #include "somm/bake.h"
 #include "somm/embree.h"
+#include "somm/encode.h"
+#include "somm/io.h"
 #include "somm/state_colours.h"
 #include "trace_internal.h"
 
@@ -381,12 +381,14 @@ struct TracerFactory {
         embree::MicromapSource src;
         src.micromaps = spec.micromaps.get();
         src.geometry = f.geometry;
-        src.encoded = spec.encoded.empty() ? nullptr : spec.encoded[spec.micromaps->geometries[f.geometry].array];
+        src.encoded =
+            spec.encoded.empty() ? nullptr : spec.encoded[spec.micromaps->geometries[f.geometry].array];
         src.twoState = spec.twoState;
         embree::AttachOptions ao;
         ao.splitSpecialIndices = spec.split;
         ao.countWork = true;
-        auto attached = embree::attachMicromaps(w.device, scene, mesh, src, detail::TextureAlphaTest{&gd}, ao);
+        auto attached =
+            embree::attachMicromaps(w.device, scene, mesh, src, detail::TextureAlphaTest{&gd}, ao);
         if (!attached) return fail(attached.error());
         embree::AttachedGeometry& a = impl->attached.emplace_back(std::move(attached).value());
         record(a.opaqueId(), uint32_t(fi), a.triangleMap(a.opaqueId()));
@@ -409,7 +411,8 @@ struct TracerFactory {
     }
     rtcCommitScene(scene);
     if (rtcGetDeviceError(w.device) != RTC_ERROR_NONE)
-      return fail(makeError(ErrorCode::UnsupportedFormat, "Embree failed to build the scene for method " + spec.name));
+      return fail(makeError(ErrorCode::UnsupportedFormat,
+                            "Embree failed to build the scene for method " + spec.name));
     std::unique_ptr<Tracer> t(new Tracer());
     t->name_ = std::move(spec.name);
     t->bytes_ = spec.bytes;
@@ -440,7 +443,8 @@ Result<std::unique_ptr<Tracer>> makeTextureTracer(std::shared_ptr<const TraceWor
   spec.name = "texture";
   spec.kind = MethodKind::Texture;
   spec.filter = &detail::filterFunction<detail::TexturePolicy>;
-  for (const auto& g : world->impl().geometries) spec.userData.push_back(const_cast<detail::GeometryData*>(&g));
+  for (const auto& g : world->impl().geometries)
+    spec.userData.push_back(const_cast<detail::GeometryData*>(&g));
   return TracerFactory::build(std::move(world), std::move(spec));
 }
 
@@ -494,16 +498,15 @@ Result<std::unique_ptr<Tracer>> makeBitmaskTracer(std::shared_ptr<const TraceWor
       uint8_t* m = mask.data() + t * bytesPerTriangle;
       std::optional<TriangleBake> tb;
       if (alphaMask)
-        tb.emplace(bakeTriangle(*alphaMask, {uv[0], uv[1]}, {uv[2], uv[3]}, {uv[4], uv[5]}, level, Format::FourState));
+        tb.emplace(bakeTriangle(*alphaMask, {uv[0], uv[1]}, {uv[2], uv[3]}, {uv[4], uv[5]}, level,
+                                Format::FourState));
       const float inv = 1.0f / float(n);
       auto micro = [&](int64_t iu, int64_t iv, bool inverted) -> State {
         if (!tb) return constant;
         const float off = inverted ? 2.0f / 3.0f : 1.0f / 3.0f;
         return tb->map.get(baryToIndex((float(iu) + off) * inv, (float(iv) + off) * inv, level));
       };
-      auto combine = [](State a, State b) {
-        return a == b && isKnown(a) ? a : State::UnknownOpaque;
-      };
+      auto combine = [](State a, State b) { return a == b && isKnown(a) ? a : State::UnknownOpaque; };
       for (uint32_t iv = 0; iv < n; ++iv)
         for (uint32_t iu = 0; iu < n; ++iu) {
           State st = State::UnknownOpaque;
@@ -549,24 +552,27 @@ Status checkMicromaps(const TraceWorld& world, const SceneMicromaps& m) {
   const auto& geoms = world.impl().geometries;
   if (m.geometries.size() != geoms.size())
     return makeError(ErrorCode::InvalidArgument, "micromaps for " + std::to_string(m.geometries.size()) +
-                                                     " geometries, the scene has " + std::to_string(geoms.size()));
+                                                     " geometries, the scene has " +
+                                                     std::to_string(geoms.size()));
   for (size_t g = 0; g < geoms.size(); ++g) {
     if (!geoms[g].alphaTested) continue;
     const GeometryMicromaps& r = m.geometries[g];
     const size_t tris = geoms[g].triUVs.size() / 6;
     if (r.triangleCount != tris)
-      return makeError(ErrorCode::InvalidArgument, "geometry " + std::to_string(g) + ": micromap index count " +
-                                                       std::to_string(r.triangleCount) + " != triangle count " +
-                                                       std::to_string(tris));
-    if (r.array >= m.arrays.size() || uint64_t(r.firstTriangle) + r.triangleCount > m.arrays[r.array].indices.size())
-      return makeError(ErrorCode::InvalidArgument, "geometry " + std::to_string(g) + ": micromaps outside the arrays");
+      return makeError(ErrorCode::InvalidArgument,
+                       "geometry " + std::to_string(g) + ": micromap index count " +
+                           std::to_string(r.triangleCount) + " != triangle count " + std::to_string(tris));
+    if (r.array >= m.arrays.size() ||
+        uint64_t(r.firstTriangle) + r.triangleCount > m.arrays[r.array].indices.size())
+      return makeError(ErrorCode::InvalidArgument,
+                       "geometry " + std::to_string(g) + ": micromaps outside the arrays");
   }
   return Ok{};
 }
 
 Result<std::unique_ptr<Tracer>> makeFlat(std::shared_ptr<const TraceWorld> world,
-                                         std::shared_ptr<const SceneMicromaps> micromaps, Format format, bool overlay,
-                                         bool split) {
+                                         std::shared_ptr<const SceneMicromaps> micromaps, Format format,
+                                         bool overlay, bool split) {
   if (Status s = checkMicromaps(*world, *micromaps); !s) return s.error();
   TracerFactory::Spec spec;
   spec.name = overlay ? "state-overlay" : (format == Format::TwoState ? "omm2-flat" : "omm4-flat");
@@ -603,8 +609,8 @@ Result<std::unique_ptr<Tracer>> makeEncoded(std::shared_ptr<const TraceWorld> wo
 }  // namespace
 
 Result<std::unique_ptr<Tracer>> makeFlatOmmTracer(std::shared_ptr<const TraceWorld> world,
-                                                  std::shared_ptr<const SceneMicromaps> micromaps, Format format,
-                                                  bool splitSpecialIndices) {
+                                                  std::shared_ptr<const SceneMicromaps> micromaps,
+                                                  Format format, bool splitSpecialIndices) {
   return makeFlat(std::move(world), std::move(micromaps), format, false, splitSpecialIndices);
 }
 
@@ -616,7 +622,9 @@ Result<std::unique_ptr<Tracer>> makeStateOverlayTracer(std::shared_ptr<const Tra
 Result<std::unique_ptr<Tracer>> makeTracer(std::shared_ptr<const TraceWorld> world, const MethodSpec& method,
                                            const MicromapSet& micromaps) {
   auto need = [&](const std::shared_ptr<const SceneMicromaps>& a) -> Status {
-    if (!a) return makeError(ErrorCode::InvalidArgument, "method " + method.name() + ": no micromaps of that format");
+    if (!a)
+      return makeError(ErrorCode::InvalidArgument,
+                       "method " + method.name() + ": no micromaps of that format");
     return Ok{};
   };
   switch (method.kind) {

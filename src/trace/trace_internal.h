@@ -48,7 +48,6 @@ struct BitmaskData {
   uint32_t n = 1, bytesPerTriangle = 1;
 };
 
-
 std::vector<std::string> encodingNames();
 
 }  // namespace detail

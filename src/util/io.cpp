@@ -1,7 +1,6 @@
 // SPDX-License-Identifier: MIT
 // somm — reading regular files with a size cap, atomic writing, staged directories, escaping (somm/io.h).
 #include "somm/io.h"
-#include "somm/limits.h"
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -13,6 +12,8 @@
 #include <filesystem>
 #include <new>
 #include <system_error>
+
+#include "somm/limits.h"
 
 namespace somm {
 
@@ -85,8 +86,8 @@ Result<std::vector<uint8_t>> readRegularFile(const std::string& path, uint64_t m
     bytes.resize(size_t(st.st_size));
   } catch (const std::bad_alloc&) {
     ::close(fd);
-    return makeError(ErrorCode::LimitExceeded, escapeName(path) + ": out of memory reading " +
-                                                   humanBytes(uint64_t(st.st_size)));
+    return makeError(ErrorCode::LimitExceeded,
+                     escapeName(path) + ": out of memory reading " + humanBytes(uint64_t(st.st_size)));
   }
   size_t done = 0;
   while (done < bytes.size()) {  // never more than the size stat reported: a growing file is cut there
@@ -107,7 +108,8 @@ Result<std::vector<uint8_t>> readRegularFile(const std::string& path, uint64_t m
 
 Status writeFileAtomically(const std::string& path, const uint8_t* bytes, size_t size) {
   if (path.empty()) return makeError(ErrorCode::InvalidArgument, "empty output path");
-  if (path.back() == '/') return makeError(ErrorCode::InvalidArgument, escapeName(path) + ": is a directory name");
+  if (path.back() == '/')
+    return makeError(ErrorCode::InvalidArgument, escapeName(path) + ": is a directory name");
   struct stat st;
   if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode))
     return makeError(ErrorCode::IoError, escapeName(path) + ": exists and is " + typeName(st.st_mode) +
@@ -162,8 +164,8 @@ Status checkOutputPath(const std::string& output, const std::vector<std::string>
   for (const std::string& in : inputs) {
     struct stat si;
     if (::stat(in.c_str(), &si) == 0 && si.st_dev == so.st_dev && si.st_ino == so.st_ino)
-      return makeError(ErrorCode::InvalidArgument,
-                       escapeName(output) + ": the output is the input " + escapeName(in) + "; refusing to overwrite it");
+      return makeError(ErrorCode::InvalidArgument, escapeName(output) + ": the output is the input " +
+                                                       escapeName(in) + "; refusing to overwrite it");
   }
   return Ok{};
 }
@@ -185,9 +187,10 @@ Status StagedDirectory::begin(const std::string& path) {
       return makeError(ErrorCode::IoError, escapeName(path_) + ": exists and is not a directory");
     std::error_code ec;
     if (!std::filesystem::is_empty(path_, ec) || ec)
-      return makeError(ErrorCode::IoError, escapeName(path_) +
-                                               ": the output directory exists and is not empty (its files are "
-                                               "kept; export into a new or empty directory)");
+      return makeError(ErrorCode::IoError,
+                       escapeName(path_) +
+                           ": the output directory exists and is not empty (its files are "
+                           "kept; export into a new or empty directory)");
   }
   const std::string parent = directoryOf(path_);
   std::error_code ec;

@@ -129,7 +129,6 @@ TEST(Conservative, BarycentricsSlightlyOutside) {
   EXPECT_GT(checked, 100000u);
 }
 
-
 // The margin's derivation (docs/baking.md "Safety margin"), tested at its bound: (1) the float UV interpolation
 // error of the tracer, measured against exact arithmetic, stays below the margin's interpolation term 6·2^-24·P and
 // comes within a factor of 6 of it (so the term is not vacuous); (2) the hit points with the largest interpolation
@@ -180,7 +179,8 @@ TEST(Conservative, MarginAtItsBound) {
               const long double w = 1.0L - (long double)b1 - (long double)b2;
               const long double s = w * uv[0][0] + (long double)b1 * uv[1][0] + (long double)b2 * uv[2][0];
               const long double t = w * uv[0][1] + (long double)b1 * uv[1][1] + (long double)b2 * uv[2][1];
-              const double err = double(std::max(std::fabs((long double)S - s) * W, std::fabs((long double)T - t) * H));
+              const double err =
+                  double(std::max(std::fabs((long double)S - s) * W, std::fabs((long double)T - t) * H));
               ASSERT_LE(err, interpTerm) << nt.name << " offset " << off;
               worst = std::max(worst, err / (0x1p-24 * mag));
               errs.push_back({err, {b1, b2}});

@@ -69,8 +69,9 @@ void checkEveryEncoding(const OmmArray& flat, const std::string& what) {
     }
     EXPECT_EQ(bad, 0u) << what << " " << encodingName(e);
     const OmmArray back = a.decode();
-    EXPECT_TRUE(back.data == flat.data && back.descriptors == flat.descriptors && back.indices == flat.indices &&
-                back.histogram == flat.histogram && back.triangleHistogram == flat.triangleHistogram)
+    EXPECT_TRUE(back.data == flat.data && back.descriptors == flat.descriptors &&
+                back.indices == flat.indices && back.histogram == flat.histogram &&
+                back.triangleHistogram == flat.triangleHistogram)
         << what << " " << encodingName(e);
     auto parsed = EncodedArray::parse(a.serialize(), what);
     ASSERT_TRUE(parsed.ok()) << parsed.error().message;

@@ -78,8 +78,8 @@ TEST(BakeScene, EveryTexelFormatAndLayoutGivesTheFloatBake) {
   ASSERT_TRUE(ref.ok());
 
   // Every format, alpha in a non-zero channel where there is one, rows padded.
-  for (TexelFormat f : {TexelFormat::R8, TexelFormat::RG8, TexelFormat::RGBA8, TexelFormat::R16, TexelFormat::RGBA16,
-                        TexelFormat::R32F}) {
+  for (TexelFormat f : {TexelFormat::R8, TexelFormat::RG8, TexelFormat::RGBA8, TexelFormat::R16,
+                        TexelFormat::RGBA16, TexelFormat::R32F}) {
     const uint32_t channels = texelChannels(f), bytes = texelBytes(f), ch = channels - 1;
     const size_t pitch = size_t(W) * bytes + 12;
     std::vector<uint8_t> img(pitch * H, 0x5a);
@@ -99,7 +99,8 @@ TEST(BakeScene, EveryTexelFormatAndLayoutGivesTheFloatBake) {
       }
     // UVs with a stride of 5 floats, 16-bit indices.
     std::vector<float> strided;
-    for (size_t i = 0; i < uv.size() / 2; ++i) strided.insert(strided.end(), {uv[2 * i], uv[2 * i + 1], 7, 7, 7});
+    for (size_t i = 0; i < uv.size() / 2; ++i)
+      strided.insert(strided.end(), {uv[2 * i], uv[2 * i + 1], 7, 7, 7});
     std::vector<uint16_t> idx;
     for (uint16_t i = 0; i < uv.size() / 2; ++i) idx.push_back(i);
     TextureView tv;
@@ -128,7 +129,8 @@ TEST(BakeScene, EveryTexelFormatAndLayoutGivesTheFloatBake) {
       ASSERT_EQ(r->micromaps.arrays.size(), 1u);
       expectSameArray(r->micromaps.arrays[0], ref->array);
       EXPECT_EQ(r->geometries[0].levels, ref->levels);
-      EXPECT_EQ(r->geometries[0].stats.unknownMicroTriangles, ref->stats.unknownMicroTriangles) << texelFormatName(f);
+      EXPECT_EQ(r->geometries[0].stats.unknownMicroTriangles, ref->stats.unknownMicroTriangles)
+          << texelFormatName(f);
       EXPECT_EQ(r->total.uniqueMaps, ref->stats.uniqueMaps);
     }
     // No index buffer: triangle t = vertices 3t..3t+2.
@@ -237,11 +239,13 @@ TEST(BakeScene, BlendNeedsAPolicy) {
   o.level = 2;
   auto r = bakeScene(s, o);
   ASSERT_FALSE(r.ok());
-  EXPECT_NE(r.error().message.find("material 'm1' has alpha mode BLEND"), std::string::npos) << r.error().message;
+  EXPECT_NE(r.error().message.find("material 'm1' has alpha mode BLEND"), std::string::npos)
+      << r.error().message;
   o.blend = BlendAs::Unknown;
   r = bakeScene(s, o);
   ASSERT_TRUE(r.ok());
-  EXPECT_EQ(r->geometries[1].stats.specialCount[size_t(State::UnknownOpaque)], s.geometries[1].triangleCount());
+  EXPECT_EQ(r->geometries[1].stats.specialCount[size_t(State::UnknownOpaque)],
+            s.geometries[1].triangleCount());
   EXPECT_EQ(r->geometries[1].stats.unknownMicroTriangles, s.geometries[1].triangleCount());
   o.blend = BlendAs::Opaque;
   r = bakeScene(s, o);

@@ -78,7 +78,8 @@ void expectEqual(const Buffers& b, const somm::OmmArray& a) {
     EXPECT_EQ(b.usage[i].format, a.histogram[i].format);
   }
   ASSERT_EQ(b.triangleUsage.size(), a.triangleHistogram.size());
-  for (size_t i = 0; i < a.triangleHistogram.size(); ++i) EXPECT_EQ(b.triangleUsage[i].count, a.triangleHistogram[i].count);
+  for (size_t i = 0; i < a.triangleHistogram.size(); ++i)
+    EXPECT_EQ(b.triangleUsage[i].count, a.triangleHistogram[i].count);
 }
 
 // A leaf-card scene (binary-alpha atlas): its alpha as 8-bit texels, and the same scene with the alpha that an
@@ -224,10 +225,12 @@ TEST(CApi, EveryViewGivesTheSameBytes) {
 
   // Binary alpha: 0 or full scale in every format. Each with 3 bytes of row padding and alpha in channel c.
   std::vector<std::vector<uint8_t>> store;
-  for (somm_texel_format f : {SOMM_TEXEL_R8, SOMM_TEXEL_RG8, SOMM_TEXEL_RGBA8, SOMM_TEXEL_R16, SOMM_TEXEL_RGBA16,
-                              SOMM_TEXEL_R32F}) {
-    const uint32_t tb = f == SOMM_TEXEL_R8 ? 1 : f == SOMM_TEXEL_RG8 || f == SOMM_TEXEL_R16 ? 2
-                        : f == SOMM_TEXEL_RGBA16 ? 8 : 4;
+  for (somm_texel_format f : {SOMM_TEXEL_R8, SOMM_TEXEL_RG8, SOMM_TEXEL_RGBA8, SOMM_TEXEL_R16,
+                              SOMM_TEXEL_RGBA16, SOMM_TEXEL_R32F}) {
+    const uint32_t tb = f == SOMM_TEXEL_R8                           ? 1
+                        : f == SOMM_TEXEL_RG8 || f == SOMM_TEXEL_R16 ? 2
+                        : f == SOMM_TEXEL_RGBA16                     ? 8
+                                                                     : 4;
     const uint32_t ch = f == SOMM_TEXEL_RG8 ? 1 : f == SOMM_TEXEL_RGBA8 ? 2 : f == SOMM_TEXEL_RGBA16 ? 3 : 0;
     const size_t pitch = size_t(w) * tb + 3;
     std::vector<uint8_t> px(pitch * h, 0x5a);
@@ -310,7 +313,8 @@ TEST(CApi, ScenePolicyAndLayout) {
   ASSERT_EQ(b.code, SOMM_OK) << b.error.message;
   ASSERT_EQ(somm_bake_result_array_count(b.r), 4u);
   somm_geometry_info gi[4];
-  for (uint32_t g = 0; g < 4; ++g) ASSERT_EQ(somm_bake_result_geometry_info(b.r, g, &gi[g], nullptr), SOMM_OK);
+  for (uint32_t g = 0; g < 4; ++g)
+    ASSERT_EQ(somm_bake_result_geometry_info(b.r, g, &gi[g], nullptr), SOMM_OK);
   EXPECT_EQ(gi[1].special_count[SOMM_STATE_UNKNOWN_OPAQUE], n);
   EXPECT_EQ(gi[2].special_count[SOMM_STATE_OPAQUE], n);
   EXPECT_EQ(gi[3].special_count[SOMM_STATE_TRANSPARENT], n);
@@ -332,7 +336,8 @@ TEST(CApi, ScenePolicyAndLayout) {
   const Buffers s = copyArray(scene.r, 0, 1);
   EXPECT_EQ(s.data, mask.data);
   EXPECT_EQ(s.info.geometry_count, 4u);
-  EXPECT_EQ(s.indices, mask.indices);  // geometry 1 (BLEND as mask) uses the same maps as geometry 0 did alone
+  EXPECT_EQ(s.indices,
+            mask.indices);  // geometry 1 (BLEND as mask) uses the same maps as geometry 0 did alone
   ASSERT_EQ(somm_bake_result_geometry_info(scene.r, 2, &gi[2], nullptr), SOMM_OK);
   EXPECT_EQ(gi[2].array, 0u);
   EXPECT_EQ(gi[2].triangle_count, n);
@@ -347,7 +352,8 @@ TEST(CApi, ScenePolicyAndLayout) {
   bake(capped, gs, ms, o);
   ASSERT_EQ(capped.code, SOMM_OK);
   uint64_t total = 0;
-  for (uint32_t a = 0; a < somm_bake_result_array_count(capped.r); ++a) total += copyArray(capped.r, a).data.size();
+  for (uint32_t a = 0; a < somm_bake_result_array_count(capped.r); ++a)
+    total += copyArray(capped.r, a).data.size();
   EXPECT_LE(total, o.max_bytes);
   EXPECT_LT(somm_bake_result_level_cap(capped.r), 7u);
 }
@@ -419,7 +425,8 @@ TEST(CApi, ErrorsCancellationAndBufferSizes) {
   EXPECT_NE(std::string(e.message).find("data capacity"), std::string::npos) << e.message;
   EXPECT_EQ(small, std::vector<uint8_t>(small.size(), 0xcc));
   EXPECT_EQ(somm_bake_result_array_info(ok.r, 1, &info, &e), SOMM_ERROR_INVALID_ARGUMENT);
-  EXPECT_EQ(somm_bake(nullptr, nullptr, nullptr, nullptr), SOMM_ERROR_INVALID_ARGUMENT);  // NULL error is fine
+  EXPECT_EQ(somm_bake(nullptr, nullptr, nullptr, nullptr),
+            SOMM_ERROR_INVALID_ARGUMENT);  // NULL error is fine
 }
 
 // Encoded arrays built from the copied spec buffers: every state equals the flat array's, serialize/parse round
@@ -455,7 +462,8 @@ TEST(CApi, EncodedArrays) {
     ASSERT_EQ(somm_encoded_array_triangle_count(a), ref.indices.size());
     for (uint32_t t = 0; t < ref.indices.size(); ++t) {
       const int level = somm_encoded_array_level(a, t);
-      ASSERT_EQ(level, ref.indices[t] < 0 ? 0 : int(ref.descriptors[size_t(ref.indices[t])].subdivisionLevel));
+      ASSERT_EQ(level,
+                ref.indices[t] < 0 ? 0 : int(ref.descriptors[size_t(ref.indices[t])].subdivisionLevel));
       const uint32_t count = ref.indices[t] < 0 ? 1 : somm::microTriangleCount(uint32_t(level));
       for (uint32_t i = 0; i < count; ++i) ASSERT_EQ(somm_encoded_array_state(a, t, i), int(ref.state(t, i)));
       EXPECT_EQ(somm_encoded_array_state_uv(a, t, 0.2f, 0.3f), int(ref.stateUV(t, 0.2f, 0.3f)));
@@ -464,10 +472,12 @@ TEST(CApi, EncodedArrays) {
     std::vector<uint8_t> bytes(size_t(somm_encoded_array_serialized_size(a)));
     ASSERT_EQ(somm_encoded_array_serialize(a, bytes.data(), bytes.size(), &e), SOMM_OK) << e.message;
     EXPECT_EQ(bytes, somm::EncodedArray::build(ref, somm::Encoding(enc))->serialize());
-    EXPECT_EQ(somm_encoded_array_serialize(a, bytes.data(), bytes.size() - 1, &e), SOMM_ERROR_BUFFER_TOO_SMALL);
+    EXPECT_EQ(somm_encoded_array_serialize(a, bytes.data(), bytes.size() - 1, &e),
+              SOMM_ERROR_BUFFER_TOO_SMALL);
     somm_encoded_array* p = nullptr;
     ASSERT_EQ(somm_encoded_array_parse(bytes.data(), bytes.size(), &p, &e), SOMM_OK) << e.message;
-    for (uint32_t t = 0; t < ref.indices.size(); ++t) ASSERT_EQ(somm_encoded_array_state(p, t, 0), int(ref.state(t, 0)));
+    for (uint32_t t = 0; t < ref.indices.size(); ++t)
+      ASSERT_EQ(somm_encoded_array_state(p, t, 0), int(ref.state(t, 0)));
     somm_encoded_array_destroy(p);
     p = nullptr;
     EXPECT_EQ(somm_encoded_array_parse(bytes.data(), bytes.size() / 2, &p, &e), SOMM_ERROR_CORRUPT);
@@ -528,7 +538,8 @@ TEST(CApi, OakTreeEqualsSommBakeAndExport) {
   ASSERT_EQ(somm_bake_result_array_count(b.r), 1u);  // one scene-wide array, as `somm bake`
   const Buffers buf = copyArray(b.r, 0);
   EXPECT_EQ(std::string(buf.data.begin(), buf.data.end()), readFile(dir.file("out/array-0/data.bin")));
-  EXPECT_EQ(std::string(buf.triangles.begin(), buf.triangles.end()), readFile(dir.file("out/array-0/triangles.bin")));
+  EXPECT_EQ(std::string(buf.triangles.begin(), buf.triangles.end()),
+            readFile(dir.file("out/array-0/triangles.bin")));
   size_t withMaps = buf.info.triangle_count;
   for (uint32_t g = 0; g < somm_bake_result_geometry_count(b.r); ++g) {
     Buffers gb;

@@ -39,7 +39,8 @@ TEST(CliBake, FileMatchesTheLibraryAndQueryMatchesStateUV) {
   ASSERT_EQ(file->micromaps.arrays.size(), 1u);
   // The same bake with one array per geometry: each array is exactly the library's per-geometry bake.
   const std::string perGeometry = dir.file("oak-g.somm");
-  ASSERT_EQ(runSomm("bake " + q(kOak) + " -o " + q(perGeometry) + " --level 5 --arrays geometry").exitCode, 0);
+  ASSERT_EQ(runSomm("bake " + q(kOak) + " -o " + q(perGeometry) + " --level 5 --arrays geometry").exitCode,
+            0);
   auto fileG = readSommFile(perGeometry);
   ASSERT_TRUE(fileG.ok()) << fileG.error().message;
   ASSERT_EQ(fileG->micromaps.arrays.size(), 2u);
@@ -114,9 +115,9 @@ TEST(CliBake, JsonSummaryAndEstimate) {
   for (const char* key : {"scene", "output", "seconds", "arrays", "geometries", "total"})
     EXPECT_TRUE(j.contains(key)) << key;
   const nlohmann::json& t = j["total"];
-  for (const char* key :
-       {"triangles", "special", "micromap_triangles", "unique_micromaps", "level_histogram", "micro_triangles",
-        "unknown_micro_triangles", "unknown_fraction", "bytes", "geometries", "arrays", "bake_stats"})
+  for (const char* key : {"triangles", "special", "micromap_triangles", "unique_micromaps", "level_histogram",
+                          "micro_triangles", "unknown_micro_triangles", "unknown_fraction", "bytes",
+                          "geometries", "arrays", "bake_stats"})
     EXPECT_TRUE(t.contains(key)) << key;
   EXPECT_EQ(t["arrays"], 1);
   auto file = readSommFile(out);
@@ -134,9 +135,8 @@ TEST(CliBake, JsonSummaryAndEstimate) {
   r = runSomm("info " + q(out) + " --json");
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const nlohmann::json info = nlohmann::json::parse(r.out);
-  for (const char* key :
-       {"triangles", "special", "unique_micromaps", "level_histogram", "micro_triangles", "unknown_micro_triangles",
-        "unknown_fraction", "bytes", "arrays", "bake_stats"})
+  for (const char* key : {"triangles", "special", "unique_micromaps", "level_histogram", "micro_triangles",
+                          "unknown_micro_triangles", "unknown_fraction", "bytes", "arrays", "bake_stats"})
     EXPECT_EQ(info["total"][key], t[key]) << key;
   EXPECT_EQ(info["bake_options"]["level"], "4");
   // --estimate: an upper bound of the baked data, written nowhere.
@@ -171,7 +171,8 @@ TEST(CliBake, MaxBytesAndTwoState) {
 
 // Scene-wide and per-geometry arrays give identical states for every (geometry, triangle, micro-triangle); returns
 // the unique maps of both.
-void expectSameStates(const SommFile& scene, const SommFile& perGeometry, uint64_t& sceneMaps, uint64_t& sumMaps) {
+void expectSameStates(const SommFile& scene, const SommFile& perGeometry, uint64_t& sceneMaps,
+                      uint64_t& sumMaps) {
   ASSERT_EQ(scene.micromaps.arrays.size(), 1u);
   ASSERT_EQ(perGeometry.micromaps.arrays.size(), perGeometry.geometries.size());
   ASSERT_EQ(scene.geometries, perGeometry.geometries);
@@ -201,7 +202,7 @@ TEST(CliBake, SceneWideArrayMatchesPerGeometryArrays) {
   std::vector<Case> cases = {{kOak, "6", false}};
   const char* env = std::getenv("SOMM_SHARED_DIR");  // default: ../shared next to the checkout
   for (const std::string& root : {std::string(env ? env : ""), std::string(SOMM_DATA_DIR) + "/../../shared",
-                                 std::string("/work/shared")}) {
+                                  std::string("/work/shared")}) {
     if (root.empty()) continue;
     const std::string p = root + "/assets/foliage/torcs-forza/forza.obj";
     if (std::filesystem::exists(p)) {
@@ -209,7 +210,8 @@ TEST(CliBake, SceneWideArrayMatchesPerGeometryArrays) {
       break;
     }
   }
-  if (cases.size() == 1) std::fprintf(stderr, "note: ../shared/assets/foliage/torcs-forza not present: oak only\n");
+  if (cases.size() == 1)
+    std::fprintf(stderr, "note: ../shared/assets/foliage/torcs-forza not present: oak only\n");
   for (const Case& c : cases) {
     TempDir dir;
     const std::string a = dir.file("scene.somm"), b = dir.file("geometry.somm");
@@ -226,7 +228,8 @@ TEST(CliBake, SceneWideArrayMatchesPerGeometryArrays) {
     EXPECT_EQ(ja["total"]["unique_micromaps"], sceneMaps);
     EXPECT_EQ(jb["total"]["unique_micromaps"], sumMaps);
     // Per-geometry counters do not depend on the layout.
-    for (const char* key : {"triangles", "special", "micro_triangles", "unknown_micro_triangles", "micromap_triangles"})
+    for (const char* key :
+         {"triangles", "special", "micro_triangles", "unknown_micro_triangles", "micromap_triangles"})
       EXPECT_EQ(ja["total"][key], jb["total"][key]) << key;
     if (c.multiGeometry) {
       // Identical maps of different geometries are stored once.
@@ -247,8 +250,9 @@ TEST(CliBake, EncodingsPerArray) {
   ASSERT_EQ(f->encodings.size(), 1u);
   ASSERT_EQ(f->encodings[0].size(), 2u);  // one section per encoding for the whole scene
   const std::string outG = dir.file("oak-g.somm");
-  ASSERT_EQ(runSomm("bake " + q(kOak) + " -o " + q(outG) + " --level 4 --encoding rank --arrays geometry").exitCode,
-            0);
+  ASSERT_EQ(
+      runSomm("bake " + q(kOak) + " -o " + q(outG) + " --level 4 --encoding rank --arrays geometry").exitCode,
+      0);
   auto g = readSommFile(outG);
   ASSERT_TRUE(g.ok());
   ASSERT_EQ(g->encodings.size(), 2u);

@@ -47,40 +47,40 @@ std::string writeFile(const TempDir& dir, const SommFile& f) {
 
 TEST(CliEncode, QueryAnswersFromEveryEncoding) {
   for (testing::Layout layout : {testing::Layout::Scene, testing::Layout::PerGeometry}) {
-  TempDir dir;
-  const SommFile f = encodedSample(layout);
-  const std::string p = writeFile(dir, f);
-  std::mt19937 rng(3);
-  std::uniform_real_distribution<float> d(0, 1);
-  std::string input;
-  std::vector<std::pair<float, float>> uv;
-  for (int i = 0; i < 300; ++i) {
-    float u = d(rng), v = d(rng);
-    if (u + v > 1) u = 1 - u, v = 1 - v;
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%a %a\n", double(u), double(v));
-    input += buf;
-    uv.emplace_back(u, v);
-  }
-  testing::writeFile(dir / "uv.txt", input);
-  for (uint32_t g = 0; g < 2; ++g)
-    for (uint32_t t : {0u, 7u, 42u, 299u}) {
-      std::string want;
-      for (const auto& [u, v] : uv) {
-        State s = f.micromaps.stateUV(g, t, u, v);
-        if (f.geometries[g].format == Format::TwoState) s = toTwoState(s);
-        want += char('0' + int(s));
-        want += '\n';
-      }
-      for (const char* e : {"flat", "dfs", "dfs-fast", "rank", "hybrid"}) {
-        const RunResult r = runSomm(dir,
-                                    "query " + shellQuote(p) + " -g " + std::to_string(g) + " -t " +
-                                        std::to_string(t) + " --encoding " + e,
-                                    dir / "uv.txt");
-        ASSERT_EQ(r.exitCode, 0) << e << ": " << r.err;
-        EXPECT_EQ(r.out, want) << e << " geometry " << g << " triangle " << t;
-      }
+    TempDir dir;
+    const SommFile f = encodedSample(layout);
+    const std::string p = writeFile(dir, f);
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<float> d(0, 1);
+    std::string input;
+    std::vector<std::pair<float, float>> uv;
+    for (int i = 0; i < 300; ++i) {
+      float u = d(rng), v = d(rng);
+      if (u + v > 1) u = 1 - u, v = 1 - v;
+      char buf[64];
+      std::snprintf(buf, sizeof buf, "%a %a\n", double(u), double(v));
+      input += buf;
+      uv.emplace_back(u, v);
     }
+    testing::writeFile(dir / "uv.txt", input);
+    for (uint32_t g = 0; g < 2; ++g)
+      for (uint32_t t : {0u, 7u, 42u, 299u}) {
+        std::string want;
+        for (const auto& [u, v] : uv) {
+          State s = f.micromaps.stateUV(g, t, u, v);
+          if (f.geometries[g].format == Format::TwoState) s = toTwoState(s);
+          want += char('0' + int(s));
+          want += '\n';
+        }
+        for (const char* e : {"flat", "dfs", "dfs-fast", "rank", "hybrid"}) {
+          const RunResult r = runSomm(dir,
+                                      "query " + shellQuote(p) + " -g " + std::to_string(g) + " -t " +
+                                          std::to_string(t) + " --encoding " + e,
+                                      dir / "uv.txt");
+          ASSERT_EQ(r.exitCode, 0) << e << ": " << r.err;
+          EXPECT_EQ(r.out, want) << e << " geometry " << g << " triangle " << t;
+        }
+      }
   }
 }
 
@@ -109,40 +109,41 @@ TEST(CliEncode, QueryErrors) {
 
 TEST(CliEncode, InfoReportsExactSizesAndRatios) {
   for (testing::Layout layout : {testing::Layout::Scene, testing::Layout::PerGeometry}) {
-  TempDir dir;
-  const SommFile f = encodedSample(layout);
-  const std::string p = writeFile(dir, f);
-  const RunResult r = runSomm(dir, "info " + shellQuote(p) + " --json --reference-compressors");
-  ASSERT_EQ(r.exitCode, 0) << r.err;
-  const nlohmann::json j = nlohmann::json::parse(r.out);
-  uint64_t totalFlat = 0, totalRank = 0;
-  for (size_t a = 0; a < f.micromaps.arrays.size(); ++a) {
-    const nlohmann::json& s = j["arrays"][a]["encoding_sizes"];
-    const uint64_t flat = EncodedArray::build(f.micromaps.arrays[a], Encoding::Flat).value().byteSize();
-    EXPECT_EQ(s["flat"]["bytes"], flat);
-    EXPECT_EQ(s["flat"]["ratio_to_flat"], 1.0);
-    for (const auto& [e, id] : kStored) {
-      const uint64_t bytes = EncodedArray::build(f.micromaps.arrays[a], e).value().byteSize();
-      EXPECT_EQ(s[encodingName(e)]["bytes"], bytes);
-      EXPECT_DOUBLE_EQ(s[encodingName(e)]["ratio_to_flat"].get<double>(), double(bytes) / double(flat));
-      if (e == Encoding::Rank) totalRank += bytes;
+    TempDir dir;
+    const SommFile f = encodedSample(layout);
+    const std::string p = writeFile(dir, f);
+    const RunResult r = runSomm(dir, "info " + shellQuote(p) + " --json --reference-compressors");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const nlohmann::json j = nlohmann::json::parse(r.out);
+    uint64_t totalFlat = 0, totalRank = 0;
+    for (size_t a = 0; a < f.micromaps.arrays.size(); ++a) {
+      const nlohmann::json& s = j["arrays"][a]["encoding_sizes"];
+      const uint64_t flat = EncodedArray::build(f.micromaps.arrays[a], Encoding::Flat).value().byteSize();
+      EXPECT_EQ(s["flat"]["bytes"], flat);
+      EXPECT_EQ(s["flat"]["ratio_to_flat"], 1.0);
+      for (const auto& [e, id] : kStored) {
+        const uint64_t bytes = EncodedArray::build(f.micromaps.arrays[a], e).value().byteSize();
+        EXPECT_EQ(s[encodingName(e)]["bytes"], bytes);
+        EXPECT_DOUBLE_EQ(s[encodingName(e)]["ratio_to_flat"].get<double>(), double(bytes) / double(flat));
+        if (e == Encoding::Rank) totalRank += bytes;
+      }
+      EXPECT_LE(s["hybrid"]["bytes"].get<uint64_t>(), flat + encode::kTailPadding);
+      EXPECT_EQ(s["zstd-19"]["random_access"], false);
+      EXPECT_GT(s["zstd-19"]["bytes"].get<uint64_t>(), 0u);
+      EXPECT_GT(s["xz-9"]["bytes"].get<uint64_t>(), 0u);
+      totalFlat += flat;
     }
-    EXPECT_LE(s["hybrid"]["bytes"].get<uint64_t>(), flat + encode::kTailPadding);
-    EXPECT_EQ(s["zstd-19"]["random_access"], false);
-    EXPECT_GT(s["zstd-19"]["bytes"].get<uint64_t>(), 0u);
-    EXPECT_GT(s["xz-9"]["bytes"].get<uint64_t>(), 0u);
-    totalFlat += flat;
-  }
-  EXPECT_EQ(j["total"]["encoding_sizes"]["flat"]["bytes"], totalFlat);
-  EXPECT_EQ(j["total"]["encoding_sizes"]["rank"]["bytes"], totalRank);
-  // The text form prints the ratios too, by encoding name.
-  const RunResult t = runSomm(dir, "info " + shellQuote(p));
-  ASSERT_EQ(t.exitCode, 0) << t.err;
-  EXPECT_NE(t.out.find("encodings (whole array serialized: header, index buffer, descriptors, data): flat "),
-            std::string::npos)
-      << t.out;
-  EXPECT_NE(t.out.find(", dfs-fast "), std::string::npos) << t.out;
-  EXPECT_EQ(t.out.find("dfsf"), std::string::npos) << t.out;
+    EXPECT_EQ(j["total"]["encoding_sizes"]["flat"]["bytes"], totalFlat);
+    EXPECT_EQ(j["total"]["encoding_sizes"]["rank"]["bytes"], totalRank);
+    // The text form prints the ratios too, by encoding name.
+    const RunResult t = runSomm(dir, "info " + shellQuote(p));
+    ASSERT_EQ(t.exitCode, 0) << t.err;
+    EXPECT_NE(
+        t.out.find("encodings (whole array serialized: header, index buffer, descriptors, data): flat "),
+        std::string::npos)
+        << t.out;
+    EXPECT_NE(t.out.find(", dfs-fast "), std::string::npos) << t.out;
+    EXPECT_EQ(t.out.find("dfsf"), std::string::npos) << t.out;
   }
 }
 
@@ -179,8 +180,8 @@ TEST(CliEncode, CompareTableJsonAndPlot) {
 TEST(CliEncode, BakeStoresEncodings) {
   TempDir dir;
   const std::string out = dir / "oak.somm";
-  RunResult r = runSomm(dir, "bake " + shellQuote(std::string(SOMM_DATA_DIR) + "/oak-tree/oaktree.gltf") + " -o " +
-                                 shellQuote(out) + " --level 5 --format 2 --encoding rank,hybrid");
+  RunResult r = runSomm(dir, "bake " + shellQuote(std::string(SOMM_DATA_DIR) + "/oak-tree/oaktree.gltf") +
+                                 " -o " + shellQuote(out) + " --level 5 --format 2 --encoding rank,hybrid");
   ASSERT_EQ(r.exitCode, 0) << r.err;
   auto f = readSommFile(out);
   ASSERT_TRUE(f.ok());
@@ -188,10 +189,12 @@ TEST(CliEncode, BakeStoresEncodings) {
   ASSERT_EQ(f->encodings[0].size(), 2u);
   EXPECT_EQ(f->encodings[0][0].id, sectionId("rank"));
   EXPECT_EQ(f->encodings[0][1].id, sectionId("hybr"));
-  EXPECT_EQ(f->encodings[0][0].bytes, EncodedArray::build(f->micromaps.arrays[0], Encoding::Rank).value().serialize());
+  EXPECT_EQ(f->encodings[0][0].bytes,
+            EncodedArray::build(f->micromaps.arrays[0], Encoding::Rank).value().serialize());
   testing::writeFile(dir / "uv.txt", "0.1 0.2\n0.3 0.3\n0.7 0.1\n0.05 0.9\n");
   const RunResult flat = runSomm(dir, "query " + shellQuote(out) + " -g 0 -t 1", dir / "uv.txt");
-  const RunResult rank = runSomm(dir, "query " + shellQuote(out) + " -g 0 -t 1 --encoding rank", dir / "uv.txt");
+  const RunResult rank =
+      runSomm(dir, "query " + shellQuote(out) + " -g 0 -t 1 --encoding rank", dir / "uv.txt");
   ASSERT_EQ(rank.exitCode, 0) << rank.err;
   EXPECT_EQ(rank.out, flat.out);
   r = runSomm(dir, "bake " + shellQuote(std::string(SOMM_DATA_DIR) + "/oak-tree/oaktree.gltf") + " -o " +
@@ -204,8 +207,9 @@ TEST(CliEncode, BakeStoresEncodings) {
 TEST(CliEncode, DfsFastSharesTheDfsSectionAndDagsAnswer) {
   TempDir dir;
   const std::string out = dir / "oak.somm";
-  RunResult r = runSomm(dir, "bake " + shellQuote(std::string(SOMM_DATA_DIR) + "/oak-tree/oaktree.gltf") + " -o " +
-                                 shellQuote(out) + " --level 5 --format 4 --encoding dfs-fast,csm,sdag");
+  RunResult r =
+      runSomm(dir, "bake " + shellQuote(std::string(SOMM_DATA_DIR) + "/oak-tree/oaktree.gltf") + " -o " +
+                       shellQuote(out) + " --level 5 --format 4 --encoding dfs-fast,csm,sdag");
   ASSERT_EQ(r.exitCode, 0) << r.err;
   auto f = readSommFile(out);
   ASSERT_TRUE(f.ok());
@@ -214,12 +218,14 @@ TEST(CliEncode, DfsFastSharesTheDfsSectionAndDagsAnswer) {
   EXPECT_EQ(f->encodings[0][0].id, sectionId("dfs "));
   EXPECT_EQ(f->encodings[0][1].id, sectionId("csm "));
   EXPECT_EQ(f->encodings[0][2].id, sectionId("sdag"));
-  EXPECT_EQ(f->encodings[0][2].bytes, EncodedArray::build(f->micromaps.arrays[0], Encoding::Sdag).value().serialize());
+  EXPECT_EQ(f->encodings[0][2].bytes,
+            EncodedArray::build(f->micromaps.arrays[0], Encoding::Sdag).value().serialize());
   testing::writeFile(dir / "uv.txt", "0.1 0.2\n0.3 0.3\n0.7 0.1\n0.05 0.9\n0.4 0.41\n");
   const RunResult flat = runSomm(dir, "query " + shellQuote(out) + " -g 0 -t 1", dir / "uv.txt");
   ASSERT_EQ(flat.exitCode, 0) << flat.err;
   for (const char* e : {"dfs", "dfs-fast", "csm", "sdag"}) {
-    const RunResult q = runSomm(dir, "query " + shellQuote(out) + " -g 0 -t 1 --encoding " + e, dir / "uv.txt");
+    const RunResult q =
+        runSomm(dir, "query " + shellQuote(out) + " -g 0 -t 1 --encoding " + e, dir / "uv.txt");
     ASSERT_EQ(q.exitCode, 0) << e << ": " << q.err;
     EXPECT_EQ(q.out, flat.out) << e;
   }

@@ -2,8 +2,8 @@
 // somm info / query / export on .somm files built from Micromaps in the test.
 #include <gtest/gtest.h>
 
-#include <nlohmann/json.hpp>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <random>
 #include <set>
 
@@ -133,7 +133,8 @@ TEST(CliInfo, JsonMatchesTheArrays) {
       if (geo.format == Format::FourState && e.micro > 0) {
         EXPECT_GT(e.unknown, 0u);
       }
-      EXPECT_DOUBLE_EQ(x["unknown_fraction"].get<double>(), e.micro ? double(e.unknown) / double(e.micro) : 0.0);
+      EXPECT_DOUBLE_EQ(x["unknown_fraction"].get<double>(),
+                       e.micro ? double(e.unknown) / double(e.micro) : 0.0);
       EXPECT_EQ(x["bake_stats"]["classified_micro_triangles"], geo.stats.microTriangles);
       EXPECT_EQ(x["bake_stats"]["classified_unknown_micro_triangles"], geo.stats.unknownMicroTriangles);
       EXPECT_EQ(x["bake_stats"]["invalid_uv_triangles"], geo.stats.invalidUvTriangles);
@@ -220,7 +221,8 @@ TEST(CliFile, Version1FilesAreRead) {
   EXPECT_EQ(got, want);
   r = runSomm("export " + shellQuote(v1) + " --dir " + shellQuote(dir.file("x")));
   ASSERT_EQ(r.exitCode, 0) << r.err;
-  EXPECT_EQ(testing::readFile(dir.file("x") + "/array-0/data.bin").size(), f->micromaps.arrays[0].data.size());
+  EXPECT_EQ(testing::readFile(dir.file("x") + "/array-0/data.bin").size(),
+            f->micromaps.arrays[0].data.size());
 }
 
 TEST(CliQuery, MatchesStateUV) {
@@ -246,9 +248,9 @@ TEST(CliQuery, MatchesStateUV) {
           expected += char('0' + int(s));
           expected += '\n';
         }
-        const RunResult r = runSomm(
-            "query " + shellQuote(p) + " --geometry " + std::to_string(g) + " --triangle " + std::to_string(t),
-            input);
+        const RunResult r = runSomm("query " + shellQuote(p) + " --geometry " + std::to_string(g) +
+                                        " --triangle " + std::to_string(t),
+                                    input);
         ASSERT_EQ(r.exitCode, 0) << r.err;
         ASSERT_EQ(r.out, expected) << "geometry " << g << " triangle " << t;
       }
@@ -374,7 +376,8 @@ TEST(CliExport, WritesTheBuildInputsPerArrayAndGeometry) {
         const uint32_t offset = uint32_t(d[0] | d[1] << 8 | d[2] << 16 | uint32_t(d[3]) << 24);
         const uint32_t level = d[4], format = d[6];
         for (uint32_t i = 0; i < microTriangleCount(level); ++i)
-          ASSERT_EQ(readPackedState(&data[offset], Format(format), i), m.state(g, t, i)) << g << " " << t << " " << i;
+          ASSERT_EQ(readPackedState(&data[offset], Format(format), i), m.state(g, t, i))
+              << g << " " << t << " " << i;
       }
     }
     // Only the expected files, no temporaries.

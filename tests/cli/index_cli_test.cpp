@@ -15,7 +15,9 @@ namespace {
 
 using testing::runSomm;
 
-int countLines(const std::string& s) { return int(std::count(s.begin(), s.end(), '\n')); }
+int countLines(const std::string& s) {
+  return int(std::count(s.begin(), s.end(), '\n'));
+}
 
 TEST(CliIndex, HandComputedAndHexFloats) {
   const auto r = runSomm("index --level 2", "0.5 0.25\n0.25 0.5\n\n0.7   0.7\r\n0x1p-1 0x1p-2\ninf nan\n");

@@ -127,9 +127,22 @@ TEST(Bird, DyadicGridTies) {
 TEST(Bird, SpecialValues) {
   const float inf = std::numeric_limits<float>::infinity();
   const float nan = std::numeric_limits<float>::quiet_NaN();
-  const float specials[] = {0.f, -0.f, 1.f, -1.f, 2.f, 0.5f, inf, -inf, nan, -nan,
-                            std::numeric_limits<float>::denorm_min(), std::numeric_limits<float>::max(),
-                            std::nextafter(1.f, 0.f), std::nextafter(1.f, 2.f), 1e-30f, -1e-30f};
+  const float specials[] = {0.f,
+                            -0.f,
+                            1.f,
+                            -1.f,
+                            2.f,
+                            0.5f,
+                            inf,
+                            -inf,
+                            nan,
+                            -nan,
+                            std::numeric_limits<float>::denorm_min(),
+                            std::numeric_limits<float>::max(),
+                            std::nextafter(1.f, 0.f),
+                            std::nextafter(1.f, 2.f),
+                            1e-30f,
+                            -1e-30f};
   for (uint32_t level = 0; level <= kMaxLevel; ++level)
     for (float u : specials)
       for (float v : specials) expectAllMatch(u, v, level);
@@ -199,9 +212,18 @@ TEST(Bird, BatchMatchesScalarOnLongArrays) {
   u[5] = std::numeric_limits<float>::quiet_NaN();
   v[6] = std::numeric_limits<float>::infinity();
   // Special values across the vector lanes too.
-  const float specials[] = {0.f, -0.f, 1.f, 2.f, -1.f, std::numeric_limits<float>::infinity(),
-                            -std::numeric_limits<float>::infinity(), std::numeric_limits<float>::quiet_NaN(),
-                            std::numeric_limits<float>::denorm_min(), 0.5f, 0.25f, 0.75f};
+  const float specials[] = {0.f,
+                            -0.f,
+                            1.f,
+                            2.f,
+                            -1.f,
+                            std::numeric_limits<float>::infinity(),
+                            -std::numeric_limits<float>::infinity(),
+                            std::numeric_limits<float>::quiet_NaN(),
+                            std::numeric_limits<float>::denorm_min(),
+                            0.5f,
+                            0.25f,
+                            0.75f};
   for (size_t i = 0; i < 144; ++i) {
     u[100 + i] = specials[i % 12];
     v[100 + i] = specials[i / 12];

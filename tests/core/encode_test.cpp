@@ -3,12 +3,12 @@
 // round trips, and the validating parser against corrupt bytes.
 #include "somm/encode.h"
 
-#include <span>
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <map>
 #include <random>
+#include <span>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -326,7 +326,8 @@ TYPED_TEST(EncodeTest, SizesEqualTheFormulas) {
     // Hybrid took the DAG: smaller than the smallest per-map blobs (whose sizes the formulas give).
     uint64_t plain = 0;
     for (const Micromap& m : maps)
-      plain += std::min({formulaBytes(MapKind::Flat, m), formulaBytes(MapKind::Dfs, m), formulaBytes(MapKind::Rank, m)});
+      plain += std::min(
+          {formulaBytes(MapKind::Flat, m), formulaBytes(MapKind::Dfs, m), formulaBytes(MapKind::Rank, m)});
     EXPECT_LT(e.dataBytes(), plain);
     EXPECT_EQ(e.byteSize(), 20u + 2u * oracle.indices.size() + 8u * maps.size() + e.dataBytes() + 8u);
     return;
@@ -538,7 +539,8 @@ TEST(EncodeDag, SubtreesSharedAcrossMaps) {
   for (Format f : {Format::TwoState, Format::FourState}) {
     const Micromap m1 = makeMap(Pattern::Leaf, 8, f, 1);
     Micromap m2 = m1;
-    for (uint32_t i = 30000; i < 30016; ++i) m2.set(i, m2.get(i) == State::Opaque ? State::Transparent : State::Opaque);
+    for (uint32_t i = 30000; i < 30016; ++i)
+      m2.set(i, m2.get(i) == State::Opaque ? State::Transparent : State::Opaque);
     Micromap m3(9, f);  // a level-9 map whose four quarters are m1: shares every subtree below its root
     for (uint32_t q = 0; q < 4; ++q)
       for (uint32_t i = 0; i < m1.size(); ++i) m3.set(q * m1.size() + i, m1.get(i));
@@ -559,7 +561,8 @@ TEST(EncodeDag, SubtreesSharedAcrossMaps) {
 TEST(EncodeDag, SdagSmallerThanCsmAndDfs) {
   for (uint32_t level : {6u, 8u, 10u}) {
     std::vector<Micromap> maps;
-    for (uint32_t s = 0; s < 4; ++s) maps.push_back(cachedMap(s % 2 ? Pattern::Leaf : Pattern::Disc, level, Format::FourState, s));
+    for (uint32_t s = 0; s < 4; ++s)
+      maps.push_back(cachedMap(s % 2 ? Pattern::Leaf : Pattern::Disc, level, Format::FourState, s));
     const OmmArray a = arrayOf(maps);
     const uint64_t sdag = EncodedArray::build(a, Encoding::Sdag).value().byteSize();
     const uint64_t csm = EncodedArray::build(a, Encoding::Csm).value().byteSize();

@@ -37,6 +37,7 @@ TEST(FpContract, BaryToIndexIsIndependentOfContraction) {
   for (uint32_t level = 0; level <= somm::kMaxLevel; ++level) {
     somm::baryToIndexBatch(somm::BatchIsa::Scalar, us.data(), vs.data(), us.size(), level, ref.data());
     for (size_t i = 0; i < us.size(); ++i)
-      ASSERT_EQ(baryToIndexContracted(us[i], vs[i], level), ref[i]) << us[i] << " " << vs[i] << " level " << level;
+      ASSERT_EQ(baryToIndexContracted(us[i], vs[i], level), ref[i])
+          << us[i] << " " << vs[i] << " level " << level;
   }
 }

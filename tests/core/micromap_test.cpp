@@ -99,10 +99,9 @@ TEST(OmmArray, DedupSpecialIndicesAndBytes) {
   EXPECT_EQ(arr.descriptors[1], (TriangleDescriptor{1, 1, 1}));
   EXPECT_EQ(arr.indices, (std::vector<int32_t>{-2, 0, -1, 1, 0, -3, -4}));
   EXPECT_EQ(arr.indexType(), IndexType::UInt16);
-  EXPECT_EQ(arr.indexBufferBytes(), (std::vector<uint8_t>{0xfe, 0xff, 0x00, 0x00, 0xff, 0xff, 0x01, 0x00, 0x00,
-                                                          0x00, 0xfd, 0xff, 0xfc, 0xff}));
-  EXPECT_EQ(arr.descriptorBytes(),
-            (std::vector<uint8_t>{0, 0, 0, 0, 1, 0, 2, 0, 1, 0, 0, 0, 1, 0, 1, 0}));
+  EXPECT_EQ(arr.indexBufferBytes(), (std::vector<uint8_t>{0xfe, 0xff, 0x00, 0x00, 0xff, 0xff, 0x01, 0x00,
+                                                          0x00, 0x00, 0xfd, 0xff, 0xfc, 0xff}));
+  EXPECT_EQ(arr.descriptorBytes(), (std::vector<uint8_t>{0, 0, 0, 0, 1, 0, 2, 0, 1, 0, 0, 0, 1, 0, 1, 0}));
   ASSERT_EQ(arr.histogram.size(), 2u);
   EXPECT_EQ(arr.histogram[0], (UsageCount{1, 1, 1}));
   EXPECT_EQ(arr.histogram[1], (UsageCount{1, 1, 2}));
@@ -170,7 +169,10 @@ TEST(SceneMicromaps, MergeSharesIdenticalMapsAcrossGeometriesAndKeepsStates) {
   for (uint32_t g = 0; g < 2; ++g)
     for (uint32_t t = 0; t < split.geometries[g].triangleCount; ++t)
       for (uint32_t i = 0; i < 64; ++i) {
-        const uint32_t lv = split.arrayOf(g).indices[t] < 0 ? 0 : split.arrayOf(g).descriptors[size_t(split.arrayOf(g).indices[t])].subdivisionLevel;
+        const uint32_t lv =
+            split.arrayOf(g).indices[t] < 0
+                ? 0
+                : split.arrayOf(g).descriptors[size_t(split.arrayOf(g).indices[t])].subdivisionLevel;
         if (i >= microTriangleCount(lv)) break;
         EXPECT_EQ(merged.state(g, t, i), split.state(g, t, i));
       }

@@ -167,7 +167,8 @@ TEST(SommFile, SceneArrayStatesPerGeometry) {
   std::vector<std::vector<Micromap>> maps(4);
   std::vector<testing::TestGeometry> geos;
   for (uint32_t g = 0; g < 4; ++g)
-    geos.push_back(randomGeometry("g" + std::to_string(g), 60 + 10 * g, Format::FourState, 0, 4, 20 + g % 2, &maps[g]));
+    geos.push_back(
+        randomGeometry("g" + std::to_string(g), 60 + 10 * g, Format::FourState, 0, 4, 20 + g % 2, &maps[g]));
   const SommFile f = testing::makeFile(geos, Layout::Scene);
   auto back = parseSomm(serialize(f), "mem");
   ASSERT_TRUE(back.ok()) << back.error().message;
@@ -234,9 +235,9 @@ TEST(SommFile, LayoutMatchesTheDocumentation) {
   const auto s = serialize(sampleFile(8, 2));
   std::vector<uint32_t> types;
   for (const ChunkPos& c : chunks(s)) types.push_back(c.type);
-  EXPECT_EQ(types, (std::vector<uint32_t>{sectionId("META"), sectionId("GEOM"), sectionId("GEOM"), sectionId("GEOM"),
-                                          sectionId("FLAT"), sectionId("ENCD"), sectionId("ENCD"), sectionId("ENCD"),
-                                          sectionId("END ")}));
+  EXPECT_EQ(types, (std::vector<uint32_t>{sectionId("META"), sectionId("GEOM"), sectionId("GEOM"),
+                                          sectionId("GEOM"), sectionId("FLAT"), sectionId("ENCD"),
+                                          sectionId("ENCD"), sectionId("ENCD"), sectionId("END ")}));
 }
 
 // ---- version 1 (one array per geometry, chunks META (GEOM FLAT ENCD*)* END) is still read ----
@@ -514,9 +515,11 @@ TEST(SommFile, CraftedInconsistenciesAreRejected) {
     return p + 8 + nameLen + matLen;  // triangle count
   };
   // Geometry 1 then starts at triangle 30 of the array where 31 are taken.
-  craft([&](auto& f, auto& cs) { put32(geomFixed(f, cs), 31); }, "starts at triangle 30 of array 0, expected 31");
+  craft([&](auto& f, auto& cs) { put32(geomFixed(f, cs), 31); },
+        "starts at triangle 30 of array 0, expected 31");
   craft([&](auto& f, auto& cs) { put32(geomFixed(f, cs) + 4, 5); }, "array 5 does not exist (1 arrays)");
-  craft([&](auto& f, auto& cs) { put32(geomFixed(f, cs) + 8, 2); }, "starts at triangle 2 of array 0, expected 0");
+  craft([&](auto& f, auto& cs) { put32(geomFixed(f, cs) + 8, 2); },
+        "starts at triangle 2 of array 0, expected 0");
   craft([&](auto& f, auto& cs) { geomFixed(f, cs)[12] = 3; }, "format 3 is not 1 or 2");
   craft([&](auto& f, auto& cs) { geomFixed(f, cs)[14] = 13; }, "max level 13");
   craft([&](auto& f, auto& cs) { geomFixed(f, cs)[13] = 3, geomFixed(f, cs)[14] = 2; }, "is empty");
@@ -547,8 +550,10 @@ TEST(SommFile, CraftedInconsistenciesAreRejected) {
         "more geometries than the 2 declared");
   craft([](auto& f, auto& cs) { put32(&f[find(cs, "META").offset + P], 4); },
         "only 3 of 4 declared geometries precede the arrays");
-  craft([](auto& f, auto& cs) { put32(&f[find(cs, "META").offset + P + 4], 0xffffffffu); }, "arrays cannot fit");
-  craft([](auto& f, auto& cs) { put32(&f[find(cs, "META").offset + P + 4], 2); }, "only 1 of 2 declared arrays");
+  craft([](auto& f, auto& cs) { put32(&f[find(cs, "META").offset + P + 4], 0xffffffffu); },
+        "arrays cannot fit");
+  craft([](auto& f, auto& cs) { put32(&f[find(cs, "META").offset + P + 4], 2); },
+        "only 1 of 2 declared arrays");
   craft([](auto& f, auto& cs) { put32(&f[find(cs, "META").offset + P + 4], 0); }, "array 0 does not exist");
   craft(
       [](auto& f, auto& cs) {

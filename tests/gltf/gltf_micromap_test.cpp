@@ -5,8 +5,8 @@
 #include <sys/wait.h>
 
 #include <cstring>
-#include <functional>
 #include <filesystem>
+#include <functional>
 #include <nlohmann/json.hpp>
 
 #include "cli_util.h"
@@ -36,7 +36,8 @@ bool havePython() {
 // Runs the independent validator; returns its exit code (0 = valid) and output.
 int runValidator(const std::string& args, std::string* output = nullptr) {
   TempDir d;
-  const std::string cmd = "python3 " + shellQuote(kValidator) + " " + args + " > " + shellQuote(d / "out") + " 2>&1";
+  const std::string cmd =
+      "python3 " + shellQuote(kValidator) + " " + args + " > " + shellQuote(d / "out") + " 2>&1";
   const int st = std::system(cmd.c_str());
   if (output) *output = readFile(d / "out");
   return WIFEXITED(st) ? WEXITSTATUS(st) : 128;
@@ -126,11 +127,14 @@ void roundTrip(const std::string& scene, const std::string& opts = "") {
   }
 }
 
-TEST(GltfMicromap, OakRoundTripEqualsSommBake) { roundTrip(kData + "/oak-tree/oaktree.gltf"); }
+TEST(GltfMicromap, OakRoundTripEqualsSommBake) {
+  roundTrip(kData + "/oak-tree/oaktree.gltf");
+}
 
 TEST(GltfMicromap, AlphaBlendModeTestRoundTrip) {
   roundTrip(kData + "/alpha-blend-mode-test/AlphaBlendModeTest.gltf", "--level 5");
-  roundTrip(kData + "/alpha-blend-mode-test/AlphaBlendModeTest.gltf", "--format 2 --blend-as-mask --cutoff 0.3");
+  roundTrip(kData + "/alpha-blend-mode-test/AlphaBlendModeTest.gltf",
+            "--format 2 --blend-as-mask --cutoff 0.3");
 }
 
 TEST(GltfMicromap, AdaptiveLevelsRoundTrip) {
@@ -165,7 +169,7 @@ TEST(GltfMicromap, ObjBecomesGltfWithMaskMaterials) {
   ASSERT_EQ(back->materials.size(), 1u);
   EXPECT_EQ(back->materials[0].alphaMode, somm::AlphaMode::Mask);
   EXPECT_EQ(back->materials[0].alphaCutoff, 0.25f);  // the cutoff the micromaps were baked with
-  ASSERT_TRUE(back->materials[0].alpha);              // the texture is embedded
+  ASSERT_TRUE(back->materials[0].alpha);             // the texture is embedded
 }
 
 TEST(GltfMicromap, RealSharedScenes) {
@@ -180,7 +184,8 @@ TEST(GltfMicromap, SmallestIndexTypeAndBaseTriangle) {
   // 400 leaf cards: more than 252 distinct maps, so the leaves need 16-bit micromapIndices.
   somm::Scene s = somm::makeLeafCardScene(400, 7);
   ASSERT_TRUE(somm::writeGlb(s, d / "cards.glb").ok());
-  auto r = runSomm("bake " + shellQuote(d / "cards.glb") + " -o " + shellQuote(d / "out.gltf") + " --level 4");
+  auto r =
+      runSomm("bake " + shellQuote(d / "cards.glb") + " -o " + shellQuote(d / "out.gltf") + " --level 4");
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const json j = json::parse(readFile(d / "out.gltf"));
   const json& x = j["meshes"][0]["primitives"][0]["extensions"]["EXT_mesh_opacity_micromap"];
@@ -273,11 +278,16 @@ json draftExample() {
                       {{"buffer", 0}, {"byteOffset", idx}, {"byteLength", 4}},
                       {{"buffer", 0}, {"byteOffset", sh}, {"byteLength", 4}},
                       {{"buffer", 0}, {"byteOffset", tris}, {"byteLength", 9}}};
-  j["accessors"] = {{{"bufferView", 2}, {"componentType", 5126}, {"count", 4}, {"type", "VEC3"},
-                     {"min", {0, 0, 0}}, {"max", {1, 1, 0}}},
-                    {{"bufferView", 5}, {"componentType", 5121}, {"count", 6}, {"type", "SCALAR"}},
-                    {{"bufferView", 3}, {"componentType", 5121}, {"count", 2}, {"type", "SCALAR"}},
-                    {{"bufferView", 5}, {"byteOffset", 6}, {"componentType", 5121}, {"count", 3}, {"type", "SCALAR"}}};
+  j["accessors"] = {
+      {{"bufferView", 2},
+       {"componentType", 5126},
+       {"count", 4},
+       {"type", "VEC3"},
+       {"min", {0, 0, 0}},
+       {"max", {1, 1, 0}}},
+      {{"bufferView", 5}, {"componentType", 5121}, {"count", 6}, {"type", "SCALAR"}},
+      {{"bufferView", 3}, {"componentType", 5121}, {"count", 2}, {"type", "SCALAR"}},
+      {{"bufferView", 5}, {"byteOffset", 6}, {"componentType", 5121}, {"count", 3}, {"type", "SCALAR"}}};
   return j;
 }
 
@@ -328,7 +338,9 @@ TEST(GltfMicromap, DraftExampleReadsExactly) {
     writeFile(d / "ex.gltf", draftExample().dump());
     writeFile(d / "sh.gltf", j.dump());
     std::string msg;
-    EXPECT_EQ(runValidator("--strict " + shellQuote(d / "ex.gltf") + " " + shellQuote(d / "sh.gltf"), &msg), 0) << msg;
+    EXPECT_EQ(runValidator("--strict " + shellQuote(d / "ex.gltf") + " " + shellQuote(d / "sh.gltf"), &msg),
+              0)
+        << msg;
   }
 }
 
@@ -367,41 +379,76 @@ TEST(GltfMicromap, EveryMustViolationIsRejected) {
     return j["meshes"][0]["primitives"][p]["extensions"]["EXT_mesh_opacity_micromap"];
   };
   const std::vector<Case> cases = {
-      {"usage arrays same length", [&](json& j) { root(j)["usageLevels"] = {1}; }, "MUST have the same length"},
+      {"usage arrays same length", [&](json& j) { root(j)["usageLevels"] = {1}; },
+       "MUST have the same length"},
       {"usageCounts >= 1", [&](json& j) { root(j)["usageCounts"][0] = 0; }, "MUST be >= 1"},
-      {"usageLevels in [0,12]", [&](json& j) { root(j)["usageLevels"][0] = 13; }, "usageLevels[0] = 13: MUST be in [0, 12]"},
-      {"usageFormats 1|2", [&](json& j) { root(j)["usageFormats"][0] = 3; }, "usageFormats[0] = 3: MUST be 1 or 2"},
+      {"usageLevels in [0,12]", [&](json& j) { root(j)["usageLevels"][0] = 13; },
+       "usageLevels[0] = 13: MUST be in [0, 12]"},
+      {"usageFormats 1|2", [&](json& j) { root(j)["usageFormats"][0] = 3; },
+       "usageFormats[0] = 3: MUST be 1 or 2"},
       {"usage sums match records", [&](json& j) { root(j)["usageCounts"][0] = 2; }, "the sums MUST be equal"},
-      {"usage pair matches records", [&](json& j) { root(j)["usageLevels"][0] = 2; }, "the sums MUST be equal"},
+      {"usage pair matches records", [&](json& j) { root(j)["usageLevels"][0] = 2; },
+       "the sums MUST be equal"},
       {"data required", [&](json& j) { root(j).erase("data"); }, "data is required"},
       {"triangles required", [&](json& j) { root(j).erase("triangles"); }, "triangles is required"},
       {"usageCounts required", [&](json& j) { root(j).erase("usageCounts"); }, "usageCounts is required"},
       {"data a bufferView", [&](json& j) { root(j)["data"] = 99; }, "bufferView 99 does not exist"},
-      {"data no byteStride", [&](json& j) { j["bufferViews"][0]["byteStride"] = 4; }, "data bufferView 0 MUST NOT define byteStride"},
-      {"triangles no byteStride", [&](json& j) { j["bufferViews"][1]["byteStride"] = 8; }, "triangles bufferView 1 MUST NOT define byteStride"},
-      {"triangles multiple of 8", [&](json& j) { j["bufferViews"][1]["byteLength"] = 12; }, "MUST be a multiple of 8"},
-      {"record level <= 12", [&](json& j) { j = withRecordBytes(j, 0, 4, {13, 0}); }, "subdivisionLevel 13 MUST be in [0, 12]"},
-      {"record format 1|2", [&](json& j) { j = withRecordBytes(j, 1, 6, {3, 0}); }, "format 3 MUST be 1 or 2"},
-      {"region inside data", [&](json& j) { j = withRecordBytes(j, 1, 0, {2, 0, 0, 0}); }, "MUST lie within the data bufferView"},
-      {"regions do not overlap", [&](json& j) { j = withRecordBytes(j, 1, 0, {0, 0, 0, 0}); }, "overlap (MUST NOT overlap)"},
-      {"mode TRIANGLES", [&](json& j) { j["meshes"][0]["primitives"][0]["mode"] = 0; }, "(MUST be 4, TRIANGLES)"},
+      {"data no byteStride", [&](json& j) { j["bufferViews"][0]["byteStride"] = 4; },
+       "data bufferView 0 MUST NOT define byteStride"},
+      {"triangles no byteStride", [&](json& j) { j["bufferViews"][1]["byteStride"] = 8; },
+       "triangles bufferView 1 MUST NOT define byteStride"},
+      {"triangles multiple of 8", [&](json& j) { j["bufferViews"][1]["byteLength"] = 12; },
+       "MUST be a multiple of 8"},
+      {"record level <= 12",
+       [&](json& j) {
+         j = withRecordBytes(j, 0, 4, {13, 0});
+       },
+       "subdivisionLevel 13 MUST be in [0, 12]"},
+      {"record format 1|2",
+       [&](json& j) {
+         j = withRecordBytes(j, 1, 6, {3, 0});
+       },
+       "format 3 MUST be 1 or 2"},
+      {"region inside data",
+       [&](json& j) {
+         j = withRecordBytes(j, 1, 0, {2, 0, 0, 0});
+       },
+       "MUST lie within the data bufferView"},
+      {"regions do not overlap",
+       [&](json& j) {
+         j = withRecordBytes(j, 1, 0, {0, 0, 0, 0});
+       },
+       "overlap (MUST NOT overlap)"},
+      {"mode TRIANGLES", [&](json& j) { j["meshes"][0]["primitives"][0]["mode"] = 0; },
+       "(MUST be 4, TRIANGLES)"},
       {"micromap required", [&](json& j) { prim(j, 0).erase("micromap"); }, "micromap is required"},
-      {"micromap index valid", [&](json& j) { prim(j, 0)["micromap"] = 1; }, "MUST be an index into the root micromaps"},
-      {"micromapBaseTriangle >= 0", [&](json& j) { prim(j, 1)["micromapBaseTriangle"] = -1; }, "micromapBaseTriangle MUST be an integer >= 0"},
-      {"index + base < records", [&](json& j) { prim(j, 1)["micromapBaseTriangle"] = 2; }, "MUST be less than the 2 triangle records"},
-      {"micromapIndices an accessor", [&](json& j) { prim(j, 0)["micromapIndices"] = 40; }, "micromapIndices MUST be a valid accessor index"},
+      {"micromap index valid", [&](json& j) { prim(j, 0)["micromap"] = 1; },
+       "MUST be an index into the root micromaps"},
+      {"micromapBaseTriangle >= 0", [&](json& j) { prim(j, 1)["micromapBaseTriangle"] = -1; },
+       "micromapBaseTriangle MUST be an integer >= 0"},
+      {"index + base < records", [&](json& j) { prim(j, 1)["micromapBaseTriangle"] = 2; },
+       "MUST be less than the 2 triangle records"},
+      {"micromapIndices an accessor", [&](json& j) { prim(j, 0)["micromapIndices"] = 40; },
+       "micromapIndices MUST be a valid accessor index"},
       {"micromapIndices SCALAR", [&](json& j) { j["accessors"][2]["type"] = "VEC2"; }, "type MUST be SCALAR"},
-      {"micromapIndices componentType", [&](json& j) { j["accessors"][2]["componentType"] = 5120; }, "componentType 5120 MUST be"},
-      {"micromapIndices not normalized", [&](json& j) { j["accessors"][2]["normalized"] = true; }, "normalized MUST NOT be true"},
-      {"micromapIndices count", [&](json& j) { j["accessors"][2]["count"] = 1; }, "MUST equal the primitive's triangle count 2"},
-      {"micromapIndices no byteStride", [&](json& j) { j["bufferViews"][3]["byteStride"] = 4; }, "MUST NOT define byteStride"},
-      {"signed >= -4", [&](json& j) {
+      {"micromapIndices componentType", [&](json& j) { j["accessors"][2]["componentType"] = 5120; },
+       "componentType 5120 MUST be"},
+      {"micromapIndices not normalized", [&](json& j) { j["accessors"][2]["normalized"] = true; },
+       "normalized MUST NOT be true"},
+      {"micromapIndices count", [&](json& j) { j["accessors"][2]["count"] = 1; },
+       "MUST equal the primitive's triangle count 2"},
+      {"micromapIndices no byteStride", [&](json& j) { j["bufferViews"][3]["byteStride"] = 4; },
+       "MUST NOT define byteStride"},
+      {"signed >= -4",
+       [&](json& j) {
          j["accessors"][2]["componentType"] = 5122;
          j["accessors"][2]["bufferView"] = 4;
          j = withViewBytes(j, 4, 0, {0xFB, 0xFF});  // -5
-       }, "MUST be >= -4"},
+       },
+       "MUST be >= -4"},
       {"extensionsUsed", [&](json& j) { j.erase("extensionsUsed"); }, "MUST be listed"},
-      {"micromaps an array", [&](json& j) { j["extensions"]["EXT_mesh_opacity_micromap"]["micromaps"] = 3; }, "micromaps is required and MUST be an array"},
+      {"micromaps an array", [&](json& j) { j["extensions"]["EXT_mesh_opacity_micromap"]["micromaps"] = 3; },
+       "micromaps is required and MUST be an array"},
   };
   TempDir d;
   std::string files;
@@ -461,12 +508,14 @@ TEST(GltfMicromap, InputGltfIsPreserved) {
       o = json::parse(readFile(out));
       EXPECT_TRUE(fs::exists(d / "out/x.bin"));
     }
-    for (const char* key : {"nodes", "materials", "samplers", "textures", "scenes", "scene", "asset", "extras"})
+    for (const char* key :
+         {"nodes", "materials", "samplers", "textures", "scenes", "scene", "asset", "extras"})
       EXPECT_EQ(o[key], in[key]) << key;
     EXPECT_EQ(o["extensions"]["EXT_somm_test_unknown"], in["extensions"]["EXT_somm_test_unknown"]);
     EXPECT_FALSE(o.contains("extensionsRequired"));
     // Old buffer views and accessors are a prefix of the new ones; meshes only gain the extension.
-    for (size_t i = 0; i < in["bufferViews"].size(); ++i) EXPECT_EQ(o["bufferViews"][i], in["bufferViews"][i]) << i;
+    for (size_t i = 0; i < in["bufferViews"].size(); ++i)
+      EXPECT_EQ(o["bufferViews"][i], in["bufferViews"][i]) << i;
     for (size_t i = 0; i < in["accessors"].size(); ++i) EXPECT_EQ(o["accessors"][i], in["accessors"][i]) << i;
     json meshes = o["meshes"];
     for (json& m : meshes)
@@ -508,7 +557,8 @@ TEST(GltfMicromap, RebakeReplacesTheExtension) {
 
 TEST(GltfMicromap, UnwritableOutputLeavesNothing) {
   TempDir d;
-  auto r = runSomm("bake " + shellQuote(kData + "/oak-tree/oaktree.gltf") + " -o " + shellQuote(d / "no/dir/x.gltf"));
+  auto r = runSomm("bake " + shellQuote(kData + "/oak-tree/oaktree.gltf") + " -o " +
+                   shellQuote(d / "no/dir/x.gltf"));
   EXPECT_NE(r.exitCode, 0);
   EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << r.err;
   EXPECT_FALSE(fs::exists(d / "no"));
@@ -516,7 +566,8 @@ TEST(GltfMicromap, UnwritableOutputLeavesNothing) {
 
 TEST(GltfMicromap, RenderUsesEmbeddedMicromaps) {
   TempDir d;
-  auto r = runSomm("bake " + shellQuote(kData + "/oak-tree/oaktree.gltf") + " -o " + shellQuote(d / "oak.glb"));
+  auto r =
+      runSomm("bake " + shellQuote(kData + "/oak-tree/oaktree.gltf") + " -o " + shellQuote(d / "oak.glb"));
   ASSERT_EQ(r.exitCode, 0) << r.err;
   r = runSomm("render " + shellQuote(d / "oak.glb") + " --method omm4-flat --width 96 --height 72 -o " +
               shellQuote(d / "omm.png") + " --json");
@@ -543,7 +594,8 @@ namespace {
 // Hostile counts: a tiny file cannot make the reader allocate for billions of triangles.
 TEST(GltfMicromap, TriangleCountsAreBoundedByTheFile) {
   json j = draftExample();
-  j["accessors"][1] = {{"componentType", 5125}, {"count", 3000000000LL}, {"type", "SCALAR"}};  // no buffer view
+  j["accessors"][1] = {
+      {"componentType", 5125}, {"count", 3000000000LL}, {"type", "SCALAR"}};  // no buffer view
   auto r = readJson(j);
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.error().message.find("too many elements"), std::string::npos) << r.error().message;

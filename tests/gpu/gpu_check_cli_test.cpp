@@ -2,7 +2,6 @@
 // `somm gpu-check` on the bundled scenes at levels 4, 8 and 12 with every encoding: 0 mismatches required, on
 // both the GLSL and the HLSL kernel. Plus its errors: no Vulkan device, a missing encoding, a bad file.
 #include <gtest/gtest.h>
-
 #include <sys/wait.h>
 
 #include <cstdlib>
@@ -28,13 +27,13 @@ bool cliDeviceOrSkipReason(std::string& reason) {
   return false;
 }
 
-#define SOMM_REQUIRE_DEVICE()                                                      \
-  do {                                                                             \
-    std::string reason;                                                            \
-    if (!cliDeviceOrSkipReason(reason)) {                                          \
+#define SOMM_REQUIRE_DEVICE()                                                             \
+  do {                                                                                    \
+    std::string reason;                                                                   \
+    if (!cliDeviceOrSkipReason(reason)) {                                                 \
       if (somm::testing::sanitizerBuild()) GTEST_SKIP() << "sanitizer build: " << reason; \
-      FAIL() << reason;                                                            \
-    }                                                                              \
+      FAIL() << reason;                                                                   \
+    }                                                                                     \
   } while (0)
 
 std::vector<std::string> lines(const std::string& s) {
@@ -73,8 +72,8 @@ TEST_P(GpuCheckScene, ZeroMismatchesForEveryEncoding) {
   ASSERT_EQ(out.size(), 1 + 2 * what.size()) << r.out;
   for (size_t i = 0; i < what.size(); ++i)
     for (size_t l = 0; l < 2; ++l) {
-      const std::string expect = what[i] + (l ? " hlsl" : " glsl") + ": 0 mismatches in " +
-                                 std::to_string(c.samples) + " lookups";
+      const std::string expect =
+          what[i] + (l ? " hlsl" : " glsl") + ": 0 mismatches in " + std::to_string(c.samples) + " lookups";
       EXPECT_EQ(out[1 + 2 * i + l], expect);
     }
 }
@@ -96,13 +95,15 @@ INSTANTIATE_TEST_SUITE_P(
 TEST(GpuCheckCli, NoVulkanDeviceIsAOneLineError) {
   TempDir dir;
   const std::string somm = dir / "scene.somm";
-  ASSERT_EQ(runSomm("bake " + shellQuote(std::string(SOMM_DATA_DIR) + "/oak-tree/oaktree.gltf") + " -l 2 -o " +
-                    shellQuote(somm)).exitCode,
+  ASSERT_EQ(runSomm("bake " + shellQuote(std::string(SOMM_DATA_DIR) + "/oak-tree/oaktree.gltf") +
+                    " -l 2 -o " + shellQuote(somm))
+                .exitCode,
             0);
   // The loader finds no driver through a manifest list that names none.
-  const std::string cmd = "VK_ICD_FILENAMES=" + shellQuote(dir / "none.json") + " VK_DRIVER_FILES=" +
-                          shellQuote(dir / "none.json") + " '" + SOMM_CLI_PATH + "' gpu-check " + shellQuote(somm) +
-                          " > " + shellQuote(dir / "out") + " 2> " + shellQuote(dir / "err");
+  const std::string cmd = "VK_ICD_FILENAMES=" + shellQuote(dir / "none.json") +
+                          " VK_DRIVER_FILES=" + shellQuote(dir / "none.json") + " '" + SOMM_CLI_PATH +
+                          "' gpu-check " + shellQuote(somm) + " > " + shellQuote(dir / "out") + " 2> " +
+                          shellQuote(dir / "err");
   const int status = std::system(cmd.c_str());
   ASSERT_TRUE(WIFEXITED(status));
   EXPECT_EQ(WEXITSTATUS(status), 1);
@@ -115,8 +116,9 @@ TEST(GpuCheckCli, NoVulkanDeviceIsAOneLineError) {
 TEST(GpuCheckCli, MissingEncodingAndBadFile) {
   TempDir dir;
   const std::string somm = dir / "scene.somm";
-  ASSERT_EQ(runSomm("bake " + shellQuote(std::string(SOMM_DATA_DIR) + "/oak-tree/oaktree.gltf") + " -l 3 -o " +
-                    shellQuote(somm)).exitCode,
+  ASSERT_EQ(runSomm("bake " + shellQuote(std::string(SOMM_DATA_DIR) + "/oak-tree/oaktree.gltf") +
+                    " -l 3 -o " + shellQuote(somm))
+                .exitCode,
             0);
   auto r = runSomm("gpu-check " + shellQuote(somm) + " --encoding rank");
   EXPECT_EQ(r.exitCode, 1) << r.err;  // the file stores no rank encoding (as somm query)
@@ -135,8 +137,9 @@ TEST(GpuCheckCli, FlatOnlyFileChecksFlat) {
   SOMM_REQUIRE_DEVICE();
   TempDir dir;
   const std::string somm = dir / "scene.somm";
-  ASSERT_EQ(runSomm("bake " + shellQuote(std::string(SOMM_DATA_DIR) + "/oak-tree/oaktree.gltf") + " -l 5 -o " +
-                    shellQuote(somm)).exitCode,
+  ASSERT_EQ(runSomm("bake " + shellQuote(std::string(SOMM_DATA_DIR) + "/oak-tree/oaktree.gltf") +
+                    " -l 5 -o " + shellQuote(somm))
+                .exitCode,
             0);
   const auto r = runSomm("gpu-check " + shellQuote(somm) + " --samples 1000 --shader hlsl");
   EXPECT_EQ(r.exitCode, 0) << r.err;
@@ -149,7 +152,8 @@ TEST(GpuBenchCli, RatiosToFlat) {
   TempDir dir;
   const std::string somm = dir / "scene.somm";
   ASSERT_EQ(runSomm("bake " + shellQuote(std::string(SOMM_DATA_DIR) + "/oak-tree/oaktree.gltf") +
-                    " -l 4 --encoding rank -o " + shellQuote(somm)).exitCode,
+                    " -l 4 --encoding rank -o " + shellQuote(somm))
+                .exitCode,
             0);
   const auto r = runSomm("gpu-bench " + shellQuote(somm) + " --samples 4096 --repeat 1");
   EXPECT_EQ(r.exitCode, 0) << r.err;

@@ -60,8 +60,8 @@ void expectStatesMatch(somm::gpu::Device& device, const somm::OmmArray& flat, co
         const uint32_t cpu = uint32_t(a->state(q[i].triangle, q[i].w));
         if ((*r)[i] != cpu && bad++ < 3)
           ADD_FAILURE() << what << " " << somm::encodingName(e) << " " << somm::gpu::shaderLanguageName(l)
-                        << ": triangle " << q[i].triangle << " index " << q[i].w << ": cpu " << cpu << ", gpu "
-                        << (*r)[i];
+                        << ": triangle " << q[i].triangle << " index " << q[i].w << ": cpu " << cpu
+                        << ", gpu " << (*r)[i];
       }
       EXPECT_EQ(bad, 0u) << what << " " << somm::encodingName(e) << " " << somm::gpu::shaderLanguageName(l)
                          << " (" << q.size() << " lookups)";
@@ -114,7 +114,8 @@ TEST(GpuLookup, BirdIndexOnStressPoints) {
           const float u = float(iu) / float(n), v = float(iv) / float(n);
           for (float du : {-1.0f, 0.0f, 1.0f})
             for (float dv : {-1.0f, 0.0f, 1.0f})
-              push(du == 0 ? u : std::nextafter(u, du * 2.0f), dv == 0 ? v : std::nextafter(v, dv * 2.0f), level);
+              push(du == 0 ? u : std::nextafter(u, du * 2.0f), dv == 0 ? v : std::nextafter(v, dv * 2.0f),
+                   level);
         }
     // Random bit patterns (NaNs, infinities, denormals, negatives included).
     for (int i = 0; i < 20000; ++i) {
@@ -130,7 +131,10 @@ TEST(GpuLookup, BirdIndexOnStressPoints) {
       const double fv = double(v) * n, vf = fv - std::floor(fv);
       const double t = 1.0 - vf - 0x1p-25 + double(int(rng() % 7) - 3) * 0x1p-26;
       const float u = t >= 0 && t < 1 ? float(t / n) : 0.0f;
-      if (i % 2) push(u, v, level); else push(v, u, level);
+      if (i % 2)
+        push(u, v, level);
+      else
+        push(v, u, level);
     }
   }
   for (ShaderLanguage l : kLanguages) {

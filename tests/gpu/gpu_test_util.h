@@ -27,15 +27,15 @@ inline bool sanitizerBuild() {
 }
 
 // Opens the device into `var` (a std::optional<Device>), or skips (sanitizer build) / fails the test.
-#define SOMM_OPEN_DEVICE_OR_SKIP(var)                                                                \
-  std::optional<somm::gpu::Device> var;                                                              \
-  {                                                                                                  \
-    auto opened = somm::gpu::Device::open();                                                         \
-    if (!opened) {                                                                                   \
+#define SOMM_OPEN_DEVICE_OR_SKIP(var)                                                                     \
+  std::optional<somm::gpu::Device> var;                                                                   \
+  {                                                                                                       \
+    auto opened = somm::gpu::Device::open();                                                              \
+    if (!opened) {                                                                                        \
       if (somm::testing::sanitizerBuild()) GTEST_SKIP() << "sanitizer build: " << opened.error().message; \
-      FAIL() << opened.error().message;                                                              \
-    }                                                                                                \
-    var.emplace(std::move(*opened));                                                                 \
+      FAIL() << opened.error().message;                                                                   \
+    }                                                                                                     \
+    var.emplace(std::move(*opened));                                                                      \
   }
 
 }  // namespace somm::testing

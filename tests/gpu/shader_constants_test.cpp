@@ -37,11 +37,13 @@ std::map<std::string, uint64_t> constants(const std::string& src) {
 }
 
 // The value of an enumerator that exists only once the csm / sdag encodings are in (the encode stage); -1 before.
-#define SOMM_ENUMERATOR_OR_NONE(Type, Name)                                         \
-  ([](auto tag) -> int64_t {                                                        \
-    using T = typename decltype(tag)::type;                                         \
-    if constexpr (requires { T::Name; }) return int64_t(T::Name);                   \
-    else return -1;                                                                 \
+#define SOMM_ENUMERATOR_OR_NONE(Type, Name) \
+  ([](auto tag) -> int64_t {                \
+    using T = typename decltype(tag)::type; \
+    if constexpr (requires { T::Name; })    \
+      return int64_t(T::Name);              \
+    else                                    \
+      return -1;                            \
   }(std::type_identity<Type>{}))
 
 std::set<std::string> functions(const std::string& src) {

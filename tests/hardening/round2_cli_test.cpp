@@ -65,9 +65,10 @@ TEST(BadSommRound2, SharedDescriptorsStayBounded) {
   for (const std::string args : {"info", "info --json", "query --geometry 0 --triangle 15999",
                                  "query --geometry 0 --triangle 7 --encoding dfs"}) {
     SCOPED_TRACE(args);
-    const auto r = runGuarded(args.substr(0, args.find(' ') == std::string::npos ? args.size() : args.find(' ')) + " " +
-                                  quote(p) + (args.find(' ') == std::string::npos ? "" : args.substr(args.find(' '))),
-                              "0.25 0.25\n0.1 0.7\n", 60);
+    const auto r =
+        runGuarded(args.substr(0, args.find(' ') == std::string::npos ? args.size() : args.find(' ')) + " " +
+                       quote(p) + (args.find(' ') == std::string::npos ? "" : args.substr(args.find(' '))),
+                   "0.25 0.25\n0.1 0.7\n", 60);
     EXPECT_EQ(r.exitCode, 0) << r.err;
     EXPECT_EQ(r.err.find("bad_alloc"), std::string::npos) << r.err;
     EXPECT_LT(r.maxRssKiB, cap);
@@ -94,10 +95,12 @@ TEST(BadSommRound2, EncodingContradictingFlatIsRefused) {
   uint32_t tri = 0;
   while (tri < flat0.indices.size() && flat0.indices[tri] != int32_t(mapIndex)) ++tri;
   ASSERT_LT(tri, flat0.indices.size());
-  const auto r = runGuarded("query " + quote(p) + " --geometry 0 --triangle " + std::to_string(tri) + " --encoding dfs",
-                            "0.1 0.1\n");
+  const auto r =
+      runGuarded("query " + quote(p) + " --geometry 0 --triangle " + std::to_string(tri) + " --encoding dfs",
+                 "0.1 0.1\n");
   expectRejected(r, 1, {p, "differs from flat"}, "query through a contradicting dfs");
-  const auto flat = runGuarded("query " + quote(p) + " --geometry 0 --triangle " + std::to_string(tri), "0.1 0.1\n");
+  const auto flat =
+      runGuarded("query " + quote(p) + " --geometry 0 --triangle " + std::to_string(tri), "0.1 0.1\n");
   EXPECT_EQ(flat.exitCode, 0) << flat.err;
   const auto info = runGuarded("info " + quote(p));
   EXPECT_EQ(info.exitCode, 0) << info.err;
@@ -109,7 +112,8 @@ TEST(BadSommRound2, StdoutWriteErrorsFail) {
   const std::string p = d.file("good.somm");
   ASSERT_TRUE(writeSommFile(p, testing::sampleFile(40, 1)).ok());
   for (const std::string& cmd : {"info " + quote(p), "info --json " + quote(p)}) {
-    const std::string full = "exec " + quote(SOMM_CLI_PATH) + " " + cmd + " > /dev/full 2> " + quote(d.file("err"));
+    const std::string full =
+        "exec " + quote(SOMM_CLI_PATH) + " " + cmd + " > /dev/full 2> " + quote(d.file("err"));
     const int status = std::system(full.c_str());
     ASSERT_TRUE(WIFEXITED(status));
     EXPECT_EQ(WEXITSTATUS(status), 1) << cmd;
@@ -157,9 +161,11 @@ TEST(BadSommRound2, ExportIsWholeOrNothing) {
 TEST(BadSommRound2, OutputsAreSafe) {
   if (!testing::hasCommand("bake") || !testing::hasCommand("view")) GTEST_SKIP();
   TempDir d;
-  testing::writeFile(d.file("t.png"), testing::readFile(std::string(SOMM_DATA_DIR) + "/oak-tree/oakleaf_light.png"));
+  testing::writeFile(d.file("t.png"),
+                     testing::readFile(std::string(SOMM_DATA_DIR) + "/oak-tree/oakleaf_light.png"));
   const std::string obj = d.file("q.obj");
-  testing::writeFile(obj, "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nusemtl leaf\nf 1/1 2/2 3/3\n");
+  testing::writeFile(
+      obj, "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nusemtl leaf\nf 1/1 2/2 3/3\n");
   testing::writeFile(d.file("m.mtl"), "newmtl leaf\nmap_d t.png\n");
   const std::string original = testing::readFile(obj);
   auto r = runGuarded("bake " + quote(obj) + " -o " + quote(obj));
@@ -190,7 +196,8 @@ TEST(BadSommRound2, OutputsAreSafe) {
   EXPECT_EQ(testing::readFile(d.file("v.png.tmp")), "mine");
   EXPECT_EQ(testing::readFile(d.file("victim")), "victim");
   if (testing::hasCommand("render")) {
-    r = runGuarded("render " + quote(d.file("missing.obj")) + " -o " + quote(d.file("v.png")) + " --width 8 --height 8");
+    r = runGuarded("render " + quote(d.file("missing.obj")) + " -o " + quote(d.file("v.png")) +
+                   " --width 8 --height 8");
     EXPECT_EQ(r.exitCode, 1);
     EXPECT_EQ(testing::readFile(d.file("v.png.tmp")), "mine");
     r = runGuarded("render " + quote(obj) + " -o " + quote(d.file("w.png")) + " --width 8 --height 8");
@@ -211,10 +218,12 @@ TEST(BadSommRound2, OptionRanges) {
   const std::string scene = quote(d.file("a.obj"));
   const std::string out = " -o " + quote(d.file("o.somm"));
   for (const std::string& args :
-       {"bake " + scene + out + " --threads 65537", "bake " + scene + out + " --max-bytes 18446744073709551616",
+       {"bake " + scene + out + " --threads 65537",
+        "bake " + scene + out + " --max-bytes 18446744073709551616",
         "bake " + scene + out + " --max-bytes 9223372036854775809", "bake " + scene + out + " --limit nodes",
         "bake " + scene + out + " --limit no-such=5", "bake " + scene + out + " --limit nodes=-1",
-        "bake " + scene + out + " --limit nodes=99999999999999999999", "compare " + scene + " --threads 65537",
+        "bake " + scene + out + " --limit nodes=99999999999999999999",
+        "compare " + scene + " --threads 65537",
         "gen-scene quad -o " + quote(d.file("g.glb")) + " --cutoff nan",
         "gen-scene leaf-cards -o " + quote(d.file("g.glb")) + " --cards 50000000",
         "scene-info " + scene + " --limit instances=1.5"}) {
@@ -225,10 +234,15 @@ TEST(BadSommRound2, OptionRanges) {
     EXPECT_EQ(r.err.find("internal error"), std::string::npos) << r.err;
     EXPECT_FALSE(std::filesystem::exists(d.file("o.somm")));
   }
-  EXPECT_EQ(runGuarded("bake " + scene + out + " --threads 1024 --limit nodes=5M --limit micro-triangles=1G").exitCode, 0);
+  EXPECT_EQ(runGuarded("bake " + scene + out + " --threads 1024 --limit nodes=5M --limit micro-triangles=1G")
+                .exitCode,
+            0);
   // The total micro-triangle work is checked before the bake starts.
-  testing::writeFile(d.file("t.png"), testing::readFile(std::string(SOMM_DATA_DIR) + "/oak-tree/oakleaf_light.png"));
-  testing::writeFile(d.file("q.obj"), "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nusemtl leaf\nf 1/1 2/2 3/3\n");
+  testing::writeFile(d.file("t.png"),
+                     testing::readFile(std::string(SOMM_DATA_DIR) + "/oak-tree/oakleaf_light.png"));
+  testing::writeFile(
+      d.file("q.obj"),
+      "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nusemtl leaf\nf 1/1 2/2 3/3\n");
   testing::writeFile(d.file("m.mtl"), "newmtl leaf\nmap_d t.png\n");
   const auto r = runGuarded("bake " + quote(d.file("q.obj")) + " -o " + quote(d.file("w.somm")) +
                             " --level 12 --limit micro-triangles=1M");

@@ -399,7 +399,8 @@ TEST(BadScene, RenderFailsCleanly) {
 std::string glbOf(const std::string& json, uint32_t version = 2) {
   auto u32 = [](uint32_t v) { return std::string(reinterpret_cast<const char*>(&v), 4); };
   std::string js = json + std::string((4 - json.size() % 4) % 4, ' ');
-  return "glTF" + u32(version) + u32(uint32_t(12 + 8 + js.size())) + u32(uint32_t(js.size())) + u32(0x4E4F534A) + js;
+  return "glTF" + u32(version) + u32(uint32_t(12 + 8 + js.size())) + u32(uint32_t(js.size())) +
+         u32(0x4E4F534A) + js;
 }
 
 // ~30,000 levels of nesting overflowed the stack inside tinygltf's JSON parser (a crash); now refused by a
@@ -407,15 +408,17 @@ std::string glbOf(const std::string& json, uint32_t version = 2) {
 TEST(BadSceneRound2, DeeplyNestedJson) {
   TempDir d;
   const size_t n = 30000;
-  const std::string json = "{\"asset\":{\"version\":\"2.0\"},\"extras\":" + std::string(n, '[') + std::string(n, ']') + "}";
+  const std::string json =
+      "{\"asset\":{\"version\":\"2.0\"},\"extras\":" + std::string(n, '[') + std::string(n, ']') + "}";
   testing::writeFile(d.file("d.gltf"), json);
   expectLoadFails(d.file("d.gltf"), ErrorCode::LimitExceeded, {"json-depth", "--limit json-depth="});
   testing::writeFile(d.file("d.glb"), glbOf(json));
   expectLoadFails(d.file("d.glb"), ErrorCode::LimitExceeded, {"json-depth"});
   // Brackets inside strings do not count; a normal file still loads.
   testing::writeFile(d.file("t.png"), tinyPng());
-  testing::writeFile(d.file("s.gltf"), replaceOnce(gltf(), R"("version":"2.0")",
-                                                    R"("version":"2.0","extras":")" + std::string(1000, '[') + "\""));
+  testing::writeFile(d.file("s.gltf"),
+                     replaceOnce(gltf(), R"("version":"2.0")",
+                                 R"("version":"2.0","extras":")" + std::string(1000, '[') + "\""));
   EXPECT_TRUE(loadScene(d.file("s.gltf")).ok());
   const auto r = testing::runGuarded("scene-info " + quote(d.file("d.gltf")));
   testing::expectRejected(r, 1, {d.file("d.gltf"), "json-depth"}, "scene-info deep JSON");
@@ -433,7 +436,8 @@ TEST(BadSceneRound2, GltfVersionsAndNegativeOffsets) {
   expectLoadFails(d.file("v.gltf"), ErrorCode::UnsupportedFormat, {"asset.version '3.0'"});
   testing::writeFile(d.file("n.gltf"), replaceOnce(gltf(), R"("byteOffset":36,)", R"("byteOffset":-36,)"));
   expectLoadFails(d.file("n.gltf"), ErrorCode::CorruptFile, {"bufferViews[1].byteOffset", "negative"});
-  testing::writeFile(d.file("n.gltf"), replaceOnce(gltf(), R"("count":3,"type":"VEC2")", R"("count":-3,"type":"VEC2")"));
+  testing::writeFile(d.file("n.gltf"),
+                     replaceOnce(gltf(), R"("count":3,"type":"VEC2")", R"("count":-3,"type":"VEC2")"));
   expectLoadFails(d.file("n.gltf"), ErrorCode::CorruptFile, {"accessors[1].count"});
 }
 
@@ -449,11 +453,14 @@ TEST(BadSceneRound2, OnlyRegularFilesAreRead) {
     // The buffer URI: the target (relative to the glTF: tinygltf looks URIs up there) instead of the data URI.
     std::string j = gltf();
     const size_t a = j.find("data:application"), b = j.find('"', a);
-    const std::string rel = target[0] == '/' && target.rfind(d.path().string(), 0) == 0 ? target.substr(d.path().string().size() + 1) : target;
+    const std::string rel = target[0] == '/' && target.rfind(d.path().string(), 0) == 0
+                                ? target.substr(d.path().string().size() + 1)
+                                : target;
     j.replace(a, b - a, rel);
     testing::writeFile(d.file("b.gltf"), j);
     expectLoadFails(d.file("b.gltf"), ErrorCode::CorruptFile, {rel[0] == '/' ? "not found" : "regular file"});
-    testing::writeFile(d.file("i.gltf"), replaceOnce(gltf(), R"("uri":"t.png")", "\"uri\":\"" + target + "\""));
+    testing::writeFile(d.file("i.gltf"),
+                       replaceOnce(gltf(), R"("uri":"t.png")", "\"uri\":\"" + target + "\""));
     const Result<Scene> s = loadScene(d.file("i.gltf"));
     ASSERT_FALSE(s.ok());
     EXPECT_NE(s.error().message.find("regular file"), std::string::npos) << s.error().message;
@@ -478,14 +485,16 @@ TEST(BadSceneRound2, NodeAndInstanceCountsAreLimited) {
   testing::writeFile(d.file("t.png"), tinyPng());
   // 24 levels, each node referencing the next one twice: 2^24 paths, 16 Mi instances of mesh 0.
   std::string nodes;
-  for (int i = 0; i < 24; ++i) nodes += "{\"children\":[" + std::to_string(i + 1) + "," + std::to_string(i + 1) + "]},";
+  for (int i = 0; i < 24; ++i)
+    nodes += "{\"children\":[" + std::to_string(i + 1) + "," + std::to_string(i + 1) + "]},";
   nodes += "{\"mesh\":0}";
   std::string j = replaceOnce(gltf(), R"("nodes":[{"mesh":0}])", "\"nodes\":[" + nodes + "]");
   testing::writeFile(d.file("dag.gltf"), j);
   expectLoadFails(d.file("dag.gltf"), ErrorCode::LimitExceeded, {"--limit"});
   // 2^10 leaves: within the node limit, above an instance limit of 1000.
   nodes.clear();
-  for (int i = 0; i < 10; ++i) nodes += "{\"children\":[" + std::to_string(i + 1) + "," + std::to_string(i + 1) + "]},";
+  for (int i = 0; i < 10; ++i)
+    nodes += "{\"children\":[" + std::to_string(i + 1) + "," + std::to_string(i + 1) + "]},";
   nodes += "{\"mesh\":0}";
   j = replaceOnce(gltf(), R"("nodes":[{"mesh":0}])", "\"nodes\":[" + nodes + "]");
   testing::writeFile(d.file("inst.gltf"), j);
@@ -502,7 +511,8 @@ TEST(BadSceneRound2, NodeAndInstanceCountsAreLimited) {
   const auto r = testing::runGuarded("scene-info " + quote(d.file("dag.gltf")));
   testing::expectRejected(r, 1, {d.file("dag.gltf"), "--limit"}, "scene-info DAG");
   EXPECT_LT(r.maxRssKiB, (testing::kSanitized ? 400 : 100) * 1024);
-  const auto raised = testing::runGuarded("scene-info " + quote(d.file("inst.gltf")) + " --limit instances=2000");
+  const auto raised =
+      testing::runGuarded("scene-info " + quote(d.file("inst.gltf")) + " --limit instances=2000");
   EXPECT_EQ(raised.exitCode, 0) << raised.err;
 }
 
@@ -558,9 +568,10 @@ std::string storedPng(uint32_t width, uint32_t height, uint8_t colourType, const
     if (rows.empty()) break;
   }
   z += be(b << 16 | a);
-  std::string ihdr = be(width) + be(height) + std::string("\x08", 1) + char(colourType) + std::string(3, '\0');
-  return std::string("\x89PNG\r\n\x1a\n", 8) + pngChunk("IHDR", ihdr) + (plte.empty() ? "" : pngChunk("PLTE", plte)) +
-         pngChunk("IDAT", z) + pngChunk("IEND", "");
+  std::string ihdr =
+      be(width) + be(height) + std::string("\x08", 1) + char(colourType) + std::string(3, '\0');
+  return std::string("\x89PNG\r\n\x1a\n", 8) + pngChunk("IHDR", ihdr) +
+         (plte.empty() ? "" : pngChunk("PLTE", plte)) + pngChunk("IDAT", z) + pngChunk("IEND", "");
 }
 
 TEST(BadSceneRound2, ImagePixelLimitAndPaletteIndices) {
@@ -574,7 +585,8 @@ TEST(BadSceneRound2, ImagePixelLimitAndPaletteIndices) {
   const std::string small = storedPng(64, 64, 0, "", std::string(64 * 65, '\0'));
   lim.decodedImageBytes = 64 * 64 * 11 + 10;
   uint64_t used = 0;
-  EXPECT_TRUE(detail::decodeImage(reinterpret_cast<const uint8_t*>(small.data()), small.size(), lim, &used).ok());
+  EXPECT_TRUE(
+      detail::decodeImage(reinterpret_cast<const uint8_t*>(small.data()), small.size(), lim, &used).ok());
   r = detail::decodeImage(reinterpret_cast<const uint8_t*>(small.data()), small.size(), lim, &used);
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.error().message.find("decoded-bytes"), std::string::npos) << r.error().message;
@@ -598,8 +610,10 @@ TEST(BadSceneRound2, ImagePixelLimitAndPaletteIndices) {
 TEST(BadSceneRound2, NamesFromFilesAreEscaped) {
   if (!testing::hasCommand("bake")) GTEST_SKIP();
   TempDir d;
-  const std::string j = replaceOnce(replaceOnce(gltf(), R"("materials":[{)", "\"materials\":[{\"name\":\"evil\\nsomm bake: forged \\u001b[31m\","),
-                                    R"("uri":"t.png")", R"("uri":"missing.png")");
+  const std::string j =
+      replaceOnce(replaceOnce(gltf(), R"("materials":[{)",
+                              "\"materials\":[{\"name\":\"evil\\nsomm bake: forged \\u001b[31m\","),
+                  R"("uri":"t.png")", R"("uri":"missing.png")");
   testing::writeFile(d.file("n.gltf"), j);
   const auto r = testing::runGuarded("bake " + quote(d.file("n.gltf")) + " -o " + quote(d.file("o.somm")));
   testing::expectRejected(r, 1, {"evil\\x0asomm bake: forged \\x1b[31m"}, "escaped material name");
@@ -614,25 +628,30 @@ TEST(BadSceneRound2, SliversAndHugeUvsAreBounded) {
   testing::writeFile(d.file("t.png"), tinyPng());
   std::string obj = "mtllib m.mtl\nusemtl leaf\n";
   for (int i = 0; i < 20; ++i) {
-    obj += "v 0 0 " + std::to_string(i) + "\nv 1 0 " + std::to_string(i) + "\nv 0 1 " + std::to_string(i) + "\n";
+    obj +=
+        "v 0 0 " + std::to_string(i) + "\nv 1 0 " + std::to_string(i) + "\nv 0 1 " + std::to_string(i) + "\n";
     obj += "vt " + std::to_string(-3000 - i) + " 0.1\nvt 3000 0.1000001\nvt 3000.5 0.1000002\n";
-    obj += "f " + std::to_string(3 * i + 1) + "/" + std::to_string(3 * i + 1) + " " + std::to_string(3 * i + 2) + "/" +
-           std::to_string(3 * i + 2) + " " + std::to_string(3 * i + 3) + "/" + std::to_string(3 * i + 3) + "\n";
+    obj += "f " + std::to_string(3 * i + 1) + "/" + std::to_string(3 * i + 1) + " " +
+           std::to_string(3 * i + 2) + "/" + std::to_string(3 * i + 2) + " " + std::to_string(3 * i + 3) +
+           "/" + std::to_string(3 * i + 3) + "\n";
   }
   testing::writeFile(d.file("m.mtl"), "newmtl leaf\nmap_d t.png\n");
   testing::writeFile(d.file("s.obj"), obj);
-  auto r = testing::runGuarded("bake " + quote(d.file("s.obj")) + " -o " + quote(d.file("s.somm")) + " --level 12 --format 2", "", 60);
+  auto r = testing::runGuarded(
+      "bake " + quote(d.file("s.obj")) + " -o " + quote(d.file("s.somm")) + " --level 12 --format 2", "", 60);
   EXPECT_EQ(r.exitCode, 0) << r.err;
   std::string huge = "mtllib m.mtl\nusemtl leaf\n";
   for (int i = 0; i < 3000; ++i) {
-    huge += "v 0 0 " + std::to_string(i) + "\nv 1 0 " + std::to_string(i) + "\nv 0 1 " + std::to_string(i) + "\n";
+    huge +=
+        "v 0 0 " + std::to_string(i) + "\nv 1 0 " + std::to_string(i) + "\nv 0 1 " + std::to_string(i) + "\n";
     huge += "vt -20000 -20000\nvt 20000 -20000\nvt 0 20000\n";
     const int b = 3 * i;
     huge += "f " + std::to_string(b + 1) + "/" + std::to_string(b + 1) + " " + std::to_string(b + 2) + "/" +
             std::to_string(b + 2) + " " + std::to_string(b + 3) + "/" + std::to_string(b + 3) + "\n";
   }
   testing::writeFile(d.file("h.obj"), huge);
-  r = testing::runGuarded("bake " + quote(d.file("h.obj")) + " -o " + quote(d.file("h.somm")) + " --level 8", "", 60);
+  r = testing::runGuarded("bake " + quote(d.file("h.obj")) + " -o " + quote(d.file("h.somm")) + " --level 8",
+                          "", 60);
   EXPECT_EQ(r.exitCode, 0) << r.err;
   r = testing::runGuarded("view " + quote(d.file("h.somm")) + " -g 0 -o " + quote(d.file("h.png")), "", 60);
   EXPECT_EQ(r.exitCode, 0) << r.err;

@@ -179,7 +179,8 @@ TEST_F(BadSomm, AbsurdCountsAndOffsets) {
       {"geometries", "geometries cannot fit",
        [&](std::string& b) { store32(b, meta.off + 24, 0xffffffffu); }},
       {"arrays", "arrays cannot fit", [&](std::string& b) { store32(b, meta.off + 28, 0xffffffffu); }},
-      {"array of a geometry", "does not exist", [&](std::string& b) {
+      {"array of a geometry", "does not exist",
+       [&](std::string& b) {
          const Chunk& geom = find(cs_, "GEOM");
          const size_t p = geom.off + 24, name = load32(b, p), material = load32(b, p + 4 + name);
          store32(b, p + 8 + name + material + 4, 0xfffffff0u);

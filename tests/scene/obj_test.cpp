@@ -64,7 +64,8 @@ TEST(Obj, MaterialsShareImagesOfOneFile) {
             "mtllib q.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\n"
             "usemtl a\nf 1/1 2/2 3/3\nusemtl b\nf 1/1 3/3 2/2\nusemtl c\nf 2/2 1/1 3/3\n");
   writeFile(dir.file("q.mtl"),
-            "newmtl a\nmap_Kd tex.png\nnewmtl b\nmap_Kd tex.png\nnewmtl c\nmap_Kd tex.png\nmap_d -imfchan r tex.png\n");
+            "newmtl a\nmap_Kd tex.png\nnewmtl b\nmap_Kd tex.png\nnewmtl c\nmap_Kd tex.png\nmap_d -imfchan r "
+            "tex.png\n");
   auto r = somm::loadScene(dir.file("q.obj"));
   ASSERT_TRUE(r.ok()) << r.error().message;
   ASSERT_EQ(r->materials.size(), 3u);

@@ -91,11 +91,13 @@ TEST(EmbreeIntegration, SpecialIndicesLeaveTheFilterPath) {
     src.twoState = twoState;
     embree::AttachOptions ao;
     ao.countWork = true;
-    auto a = embree::attachMicromaps(device, scene, mesh.view(), src, embree::AlphaTestFunction{&alphaTest, &calls}, ao);
+    auto a = embree::attachMicromaps(device, scene, mesh.view(), src,
+                                     embree::AlphaTestFunction{&alphaTest, &calls}, ao);
     ASSERT_TRUE(a.ok()) << a.error().message;
     rtcCommitScene(scene);
     EXPECT_EQ(a->droppedTriangles(), 1u);
-    EXPECT_EQ(a->opaqueTriangles(), twoState ? 2u : 1u);  // 2-state: the unknown-opaque special index is opaque
+    EXPECT_EQ(a->opaqueTriangles(),
+              twoState ? 2u : 1u);  // 2-state: the unknown-opaque special index is opaque
     EXPECT_EQ(a->filteredTriangles(), twoState ? 1u : 2u);
     embree::FilterCounters work;
     embree::CountingContext ctx;
@@ -147,7 +149,8 @@ TEST(EmbreeIntegration, SpecialIndicesLeaveTheFilterPath) {
   src.micromaps = &sm;
   embree::AttachOptions ao;
   ao.splitSpecialIndices = false;
-  auto a = embree::attachMicromaps(device, scene, mesh.view(), src, embree::AlphaTestFunction{&alphaTest, &calls}, ao);
+  auto a = embree::attachMicromaps(device, scene, mesh.view(), src,
+                                   embree::AlphaTestFunction{&alphaTest, &calls}, ao);
   ASSERT_TRUE(a.ok());
   EXPECT_EQ(a->filteredTriangles(), 4u);
   EXPECT_EQ(a->opaqueId(), RTC_INVALID_GEOMETRY_ID);
@@ -156,14 +159,19 @@ TEST(EmbreeIntegration, SpecialIndicesLeaveTheFilterPath) {
   // Mismatches are errors.
   scene = rtcNewScene(device);
   const Mesh three(3);
-  EXPECT_FALSE(embree::attachMicromaps(device, scene, three.view(), src, embree::AlphaTestFunction{&alphaTest, &calls}).ok());
+  EXPECT_FALSE(
+      embree::attachMicromaps(device, scene, three.view(), src, embree::AlphaTestFunction{&alphaTest, &calls})
+          .ok());
   src.geometry = 1;
-  EXPECT_FALSE(embree::attachMicromaps(device, scene, mesh.view(), src, embree::AlphaTestFunction{&alphaTest, &calls}).ok());
+  EXPECT_FALSE(
+      embree::attachMicromaps(device, scene, mesh.view(), src, embree::AlphaTestFunction{&alphaTest, &calls})
+          .ok());
   SceneMicromaps bad = sm;
   bad.arrays[0].indices[2] = 99;
   src.geometry = 0;
   src.micromaps = &bad;
-  auto e = embree::attachMicromaps(device, scene, mesh.view(), src, embree::AlphaTestFunction{&alphaTest, &calls});
+  auto e =
+      embree::attachMicromaps(device, scene, mesh.view(), src, embree::AlphaTestFunction{&alphaTest, &calls});
   ASSERT_FALSE(e.ok());
   EXPECT_NE(e.error().message.find("triangle 2"), std::string::npos) << e.error().message;
   rtcReleaseScene(scene);

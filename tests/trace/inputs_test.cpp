@@ -65,7 +65,8 @@ Traced traceAndCheck(Scene s, const std::optional<Camera>& camera, uint32_t leve
     perGeometry.push_back(baked.ok() ? baked->array : OmmArray{});
   }
   MicromapSet m;
-  m.flat4 = std::make_shared<const SceneMicromaps>(mergeToSceneArray(perGeometryMicromaps(std::move(perGeometry))));
+  m.flat4 =
+      std::make_shared<const SceneMicromaps>(mergeToSceneArray(perGeometryMicromaps(std::move(perGeometry))));
   auto omm4 = makeTracer(*world, parseMethod("omm4-flat").value(), m);
   EXPECT_TRUE(omm4.ok()) << (omm4.ok() ? "" : omm4.error().message);
   if (!omm4.ok()) return out;
@@ -123,7 +124,8 @@ TEST(TraceInputs, BundledRedEclipseTree) {
   auto s = loadScene(std::string(SOMM_DATA_DIR) + "/redeclipse-tree01/tree01.obj");
   ASSERT_TRUE(s.ok()) << s.error().message;
   for (Material& m : s->materials) m.alphaCutoff = 0.7f;
-  const Traced t = traceAndCheck(std::move(s).value(), Camera{{0, -260, 200}, {30, 0, 250}, {0, 0, 1}, 1.05f});
+  const Traced t =
+      traceAndCheck(std::move(s).value(), Camera{{0, -260, 200}, {30, 0, 250}, {0, 0, 1}, 1.05f});
   EXPECT_GT(t.texture.alphaTestedPixels, 96u * 72u / 2);
 }
 
@@ -134,9 +136,9 @@ TEST(TraceInputs, GltfScene) {
 }
 
 TEST(TraceInputs, ProceduralScenesAndTheirGlb) {
-  for (Scene s : {makeLeafCardScene(200, 3), makeQuadScene(std::make_shared<const AlphaTexture>(
-                                                               makeDiscTexture(64)),
-                                                           Sampler{}, 0.5f, {0, 0, 1, 1})}) {
+  for (Scene s :
+       {makeLeafCardScene(200, 3), makeQuadScene(std::make_shared<const AlphaTexture>(makeDiscTexture(64)),
+                                                 Sampler{}, 0.5f, {0, 0, 1, 1})}) {
     for (const Instance& i : s.instances) EXPECT_TRUE(isUsableTransform(i.transform));
     TempDir d;
     ASSERT_TRUE(writeGlb(s, d.file("p.glb")).ok());
@@ -149,19 +151,22 @@ TEST(TraceInputs, ProceduralScenesAndTheirGlb) {
 
 TEST(TraceInputs, GenSceneOutputRendersWithTheCli) {
   TempDir d;
-  for (const std::string& kind : {std::string("leaf-cards --cards 300"), std::string("quad --texture leaf")}) {
+  for (const std::string& kind :
+       {std::string("leaf-cards --cards 300"), std::string("quad --texture leaf")}) {
     ASSERT_EQ(runSomm("gen-scene " + kind + " -o " + d.file("g.glb")).exitCode, 0);
     auto s = loadScene(d.file("g.glb"));
     ASSERT_TRUE(s.ok()) << s.error().message;
     traceAndCheck(std::move(s).value(), std::nullopt);
-    const auto r = runSomm("render " + d.file("g.glb") + " --width 64 --height 48 -o " + d.file("g.png") + " --json");
+    const auto r =
+        runSomm("render " + d.file("g.glb") + " --width 64 --height 48 -o " + d.file("g.png") + " --json");
     ASSERT_EQ(r.exitCode, 0) << r.err;
     const auto j = nlohmann::json::parse(r.out);
     EXPECT_GT(j["filter_calls"].get<uint64_t>(), 0u) << kind;
     EXPECT_GT(j["shadow_rays"].get<uint64_t>(), 0u) << kind;
     EXPECT_GT(j["alpha_tested_pixels"].get<uint64_t>(), 0u) << kind;
   }
-  const auto o = runSomm("render " + writeObjScene(d) + " --width 64 --height 48 -o " + d.file("o.png") + " --json");
+  const auto o =
+      runSomm("render " + writeObjScene(d) + " --width 64 --height 48 -o " + d.file("o.png") + " --json");
   ASSERT_EQ(o.exitCode, 0) << o.err;
   EXPECT_GT(nlohmann::json::parse(o.out)["filter_calls"].get<uint64_t>(), 0u);
 }
@@ -182,14 +187,15 @@ TEST(TraceInputs, DegenerateTransformsAreErrors) {
 
   // glTF: a node whose matrix is zero is an error naming the node.
   TempDir d;
-  Scene q = makeQuadScene(std::make_shared<const AlphaTexture>(makeDiscTexture(16)),
-                          Sampler{}, 0.5f, {0, 0, 1, 1});
+  Scene q =
+      makeQuadScene(std::make_shared<const AlphaTexture>(makeDiscTexture(16)), Sampler{}, 0.5f, {0, 0, 1, 1});
   ASSERT_TRUE(writeGlb(q, d.file("q.glb")).ok());
   std::string glb = testing::readFile(d.file("q.glb"));
   const std::string identity = "\"matrix\":[1.0,0.0,0.0,0.0,0.0,1.0,0.0,0.0,0.0,0.0,1.0,0.0,0.0,0.0,0.0,1.0]";
   const size_t at = glb.find(identity);
   ASSERT_NE(at, std::string::npos) << "the GLB writer writes the identity as an explicit matrix";
-  glb.replace(at, identity.size(), "\"matrix\":[0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,1.0]");
+  glb.replace(at, identity.size(),
+              "\"matrix\":[0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,0.0,1.0]");
   writeFile(d.file("z.glb"), glb);
   auto z = loadScene(d.file("z.glb"));
   ASSERT_FALSE(z.ok());
@@ -275,7 +281,8 @@ TEST(TraceInputs, RealFoliageScenes) {
     if (c.cutoff >= 0)
       for (Material& m : s->materials) m.alphaCutoff = c.cutoff;
     const Traced t = traceAndCheck(std::move(s).value(), c.camera);
-    EXPECT_GT(t.texture.alphaTestedPixels, 96u * 72u / 20) << c.path << ": the camera must look into the foliage";
+    EXPECT_GT(t.texture.alphaTestedPixels, 96u * 72u / 20)
+        << c.path << ": the camera must look into the foliage";
   }
 }
 

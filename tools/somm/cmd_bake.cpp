@@ -14,9 +14,9 @@
 #include "encodings.h"
 #include "file_summary.h"
 #include "limits_cli.h"
-#include "somm/io.h"
 #include "somm/bake.h"
 #include "somm/gltf.h"
+#include "somm/io.h"
 #include "somm/scene.h"
 #include "somm/somm_file.h"
 
@@ -35,9 +35,9 @@ struct Options {
   uint32_t threads = 0;
   bool json = false;
   bool blendAsMask = false;
-  std::string encodings;  // --encoding: comma list or "all" (flat is always stored)
+  std::string encodings;            // --encoding: comma list or "all" (flat is always stored)
   std::vector<std::string> limits;  // --limit NAME=VALUE
-  std::string arrays = "scene";  // --arrays: one scene-wide OMM array, or one per geometry
+  std::string arrays = "scene";     // --arrays: one scene-wide OMM array, or one per geometry
 };
 
 std::string floatText(double f) {
@@ -79,8 +79,12 @@ class Progress {
 // A library message names BakeOptions fields ("level 13 is out of range (0..12)"); the CLI names its flags.
 std::string flagNames(const std::string& message) {
   static const std::pair<const char*, const char*> kFlags[] = {
-      {"level ", "--level "},         {"maxLevel ", "--max-level "}, {"texelsPerMicroTri ", "--texels-per-microtri "},
-      {"format ", "--format "},       {"cutoff ", "--cutoff "},      {"unknownAs ", "--unknown-as "}};
+      {"level ", "--level "},
+      {"maxLevel ", "--max-level "},
+      {"texelsPerMicroTri ", "--texels-per-microtri "},
+      {"format ", "--format "},
+      {"cutoff ", "--cutoff "},
+      {"unknownAs ", "--unknown-as "}};
   for (const auto& [field, flag] : kFlags)
     if (message.rfind(field, 0) == 0) return flag + message.substr(std::string(field).size());
   return message;
@@ -263,7 +267,8 @@ int run(const Options& o) {
   progress.finish();
   if (!encodings.empty()) {
     std::string names;
-    for (somm::Encoding e : encodings) names += (names.empty() ? "" : ",") + std::string(somm::encodingName(e));
+    for (somm::Encoding e : encodings)
+      names += (names.empty() ? "" : ",") + std::string(somm::encodingName(e));
     file.bakeOptions.emplace_back("encoding", names);
     if (somm::Status s = addEncodingSections(file, encodings); !s) {
       printError("bake", o.scene + ": " + s.error().message);
@@ -317,8 +322,8 @@ int run(const Options& o) {
   char frac[32], secs[32];
   std::snprintf(frac, sizeof frac, "%.3f%%", 100.0 * s.unknownFraction());
   std::snprintf(secs, sizeof secs, "%.2f", seconds);
-  out.put(o.output + ": " + counted(sum.geometries.size(), "geometry", "geometries") + ", " + std::to_string(s.triangles) +
-          " triangles baked in " + secs + " s into " +
+  out.put(o.output + ": " + counted(sum.geometries.size(), "geometry", "geometries") + ", " +
+          std::to_string(s.triangles) + " triangles baked in " + secs + " s into " +
           (sceneArray ? std::string("one scene-wide OMM array")
                       : std::to_string(sum.arrays.size()) + " OMM arrays (one per geometry)") +
           "\n");
@@ -330,8 +335,9 @@ int run(const Options& o) {
           levelList(sum.arrayTotal.levelMicromaps) + "\n");
   out.put("  build buffers: data " + bytesText(sum.arrayTotal.dataBytes) + ", descriptors " +
           bytesText(sum.arrayTotal.descriptorBytes) + ", index buffers " + bytesText(s.indexBytes) + "\n");
-  out.put("  unknown: " + std::to_string(s.unknownMicroTriangles) + " of the " + std::to_string(s.microTriangles) +
-          " micro-triangles of the triangles with micromaps (" + frac + ")\n");
+  out.put("  unknown: " + std::to_string(s.unknownMicroTriangles) + " of the " +
+          std::to_string(s.microTriangles) + " micro-triangles of the triangles with micromaps (" + frac +
+          ")\n");
   return kExitOk;
 }
 
@@ -342,7 +348,9 @@ void setup(CLI::App& root) {
       "Bake conservative opacity micromaps for every geometry of a glTF (.gltf/.glb) or OBJ scene into a "
       ".somm file, and print a summary.");
   cmd->add_option("scene", o->scene, "scene file (.gltf, .glb, .obj)")->required();
-  cmd->add_option("-o,--output", o->output, "output .somm file, or .glb / .gltf (+ .bin): the scene with its micromaps in EXT_mesh_opacity_micromap (written atomically)");
+  cmd->add_option("-o,--output", o->output,
+                  "output .somm file, or .glb / .gltf (+ .bin): the scene with its micromaps in "
+                  "EXT_mesh_opacity_micromap (written atomically)");
   cmd->add_option("--level,-l", o->level, "fixed subdivision level 0..12 (default 6)")
       ->check(CLI::Range(0u, 12u));
   cmd->add_option("--max-level", o->maxLevel, "adaptive levels: the cap 0..12")->check(CLI::Range(0u, 12u));
@@ -359,7 +367,8 @@ void setup(CLI::App& root) {
       ->check(CLI::IsMember({"opaque", "transparent", "majority"}));
   cmd->add_option("--max-bytes", o->maxBytes,
                   "lower a scene-wide level cap until the data of all arrays fits in B bytes")
-      ->check(CLI::NonNegativeNumber & CLI::Range(uint64_t(0), uint64_t(1) << 63));  // CLI11 would wrap "-5" into 2^64 - 5
+      ->check(CLI::NonNegativeNumber &
+              CLI::Range(uint64_t(0), uint64_t(1) << 63));  // CLI11 would wrap "-5" into 2^64 - 5
   cmd->add_flag("--estimate", o->estimate,
                 "print the data size from the levels alone, bake nothing, write nothing");
   cmd->add_option("--threads,-j", o->threads, "worker threads (default: all)")->check(CLI::Range(0u, 1024u));

@@ -25,7 +25,7 @@ struct Row {
   std::string name;
   somm::MethodSpec spec;
   std::unique_ptr<somm::Tracer> tracer;
-  std::vector<double> mrays;  // per repeat
+  std::vector<double> mrays;   // per repeat
   std::vector<double> ratios;  // per repeat: mrays / texture's mrays of the same repeat
   somm::TraceCounters counters;
   double diff = 0;
@@ -102,10 +102,11 @@ int run(const Options& o) {
     for (size_t k = 0; k < r.mrays.size(); ++k)
       r.ratios.push_back(textureRuns[k] > 0 ? r.mrays[k] / textureRuns[k] : 0.0);
   const double textureMedian = median(textureRuns);
-  const double textureSpread =
-      textureMedian > 0 ? (*std::max_element(textureRuns.begin(), textureRuns.end()) -
-                           *std::min_element(textureRuns.begin(), textureRuns.end())) / textureMedian
-                        : 0.0;
+  const double textureSpread = textureMedian > 0
+                                   ? (*std::max_element(textureRuns.begin(), textureRuns.end()) -
+                                      *std::min_element(textureRuns.begin(), textureRuns.end())) /
+                                         textureMedian
+                                   : 0.0;
   bool inexact = false;
   for (const Row& r : rows) inexact |= r.exact && r.diff != 0.0;
   const uint64_t alphaPixels = rows.front().counters.alphaTestedPixels;
@@ -152,26 +153,26 @@ int run(const Options& o) {
                   needMicromaps ? p->micromapSource.c_str() : "-", (unsigned long long)alphaPixels,
                   (unsigned long long)p->settings.width * p->settings.height);
     out.put(buf);
-    std::snprintf(buf, sizeof buf, "%-14s %9s %10s %13s %12s %13s %14s %9s\n", "method", "Mrays/s", "vs texture",
-                  "ratio range", "filter/ray", "texture/ray", "micromap bytes", "% pixels");
+    std::snprintf(buf, sizeof buf, "%-14s %9s %10s %13s %12s %13s %14s %9s\n", "method", "Mrays/s",
+                  "vs texture", "ratio range", "filter/ray", "texture/ray", "micromap bytes", "% pixels");
     out.put(buf);
     for (const Row& r : rows) {
       const double rays = double(r.counters.rays());
       char range[64];
       std::snprintf(range, sizeof range, "%.2f-%.2f", *std::min_element(r.ratios.begin(), r.ratios.end()),
                     *std::max_element(r.ratios.begin(), r.ratios.end()));
-      std::snprintf(buf, sizeof buf, "%-14s %9.2f %9.2fx %13s %12.3f %13.3f %14llu %8.3f%s\n", r.name.c_str(),
-                    median(r.mrays), median(r.ratios), range,
-                    rays ? double(r.counters.filterCalls) / rays : 0.0,
-                    rays ? double(r.counters.textureTests) / rays : 0.0,
-                    (unsigned long long)r.tracer->micromapBytes(), r.diff,
-                    r.exact && r.diff != 0.0 ? "  NOT EXACT" : "");
+      std::snprintf(
+          buf, sizeof buf, "%-14s %9.2f %9.2fx %13s %12.3f %13.3f %14llu %8.3f%s\n", r.name.c_str(),
+          median(r.mrays), median(r.ratios), range, rays ? double(r.counters.filterCalls) / rays : 0.0,
+          rays ? double(r.counters.textureTests) / rays : 0.0, (unsigned long long)r.tracer->micromapBytes(),
+          r.diff, r.exact && r.diff != 0.0 ? "  NOT EXACT" : "");
       out.put(buf);
     }
   }
   out.flush();
   if (textureSpread > 0.10)
-    printError("bench", "warning: the texture runs spread by " + std::to_string(int(textureSpread * 100 + 0.5)) +
+    printError("bench", "warning: the texture runs spread by " +
+                            std::to_string(int(textureSpread * 100 + 0.5)) +
                             " % (the machine's speed changed; use more --repeat)");
   if (alphaPixels == 0 && !o.allowEmpty) {
     printError("bench", o.trace.scene +
@@ -192,9 +193,11 @@ void setup(CLI::App& root) {
       "bench",
       "Trace the same rays with every any-hit method (interleaved over --repeat runs) and print Mrays/s "
       "(median), the "
-      "median of the per-repeat ratios to texture, filter calls and texture tests per ray, micromap bytes and the % of pixels "
+      "median of the per-repeat ratios to texture, filter calls and texture tests per ray, micromap bytes "
+      "and the % of pixels "
       "differing from "
-      "texture. Exit code 1 if a 4-state method or the bitmask is not pixel-identical to texture, or if no pixel "
+      "texture. Exit code 1 if a 4-state method or the bitmask is not pixel-identical to texture, or if no "
+      "pixel "
       "saw an alpha-tested hit (unless --allow-empty).");
   somm::cli::addTraceOptions(cmd, opts->trace);
   cmd->add_option("--methods", opts->methods,

@@ -13,9 +13,9 @@
 #include <vector>
 
 #include "command.h"
-#include "limits_cli.h"
 #include "encodings.h"
 #include "file_summary.h"
+#include "limits_cli.h"
 #include "somm/bake.h"
 #include "somm/encode.h"
 #include "somm/omm_array.h"
@@ -50,7 +50,9 @@ struct Row {
   std::array<double, somm::kEncodingCount> ns{};       // ns per random (u, v) lookup, 0 = not measured
   uint64_t xz = 0;                                     // xz -9 of the flat array's bytes
   double ratio(Encoding e) const { return bytes[0] ? double(bytes[size_t(e)]) / double(bytes[0]) : 0.0; }
-  double ratioTo(Encoding e, uint64_t base) const { return base ? double(bytes[size_t(e)]) / double(base) : 0.0; }
+  double ratioTo(Encoding e, uint64_t base) const {
+    return base ? double(bytes[size_t(e)]) / double(base) : 0.0;
+  }
 };
 
 // Thread CPU time in ns (the machine may be shared: wall time would measure the neighbours).
@@ -277,8 +279,13 @@ somm::Status writePlot(const std::string& path, const std::vector<Row>& rows,
   cv.line(left, top, left, bottom, ink);
   cv.text((left + right) / 2 - 15, bottom + 24, "level", ink);
   cv.text(4, 4, "ratio to flat", ink);
-  const std::array<std::array<uint8_t, 3>, somm::kEncodingCount> colors{
-      {{0, 0, 0}, {214, 39, 40}, {255, 127, 14}, {31, 119, 180}, {44, 160, 44}, {148, 103, 189}, {140, 86, 75}}};
+  const std::array<std::array<uint8_t, 3>, somm::kEncodingCount> colors{{{0, 0, 0},
+                                                                         {214, 39, 40},
+                                                                         {255, 127, 14},
+                                                                         {31, 119, 180},
+                                                                         {44, 160, 44},
+                                                                         {148, 103, 189},
+                                                                         {140, 86, 75}}};
   int legendY = top + 10;
   for (Encoding e : somm::kAllEncodings)
     for (uint32_t f : formats) {
@@ -376,7 +383,8 @@ int run(const Options& o) {
         }
         perGeometry.push_back(std::move(baked->array));
       }
-      const somm::SceneMicromaps sm = somm::mergeToSceneArray(somm::perGeometryMicromaps(std::move(perGeometry)));
+      const somm::SceneMicromaps sm =
+          somm::mergeToSceneArray(somm::perGeometryMicromaps(std::move(perGeometry)));
       const somm::OmmArray flat = sm.arrays.empty() ? somm::OmmArray{} : sm.arrays[0];
       row.triangles = flat.indices.size();
       row.maps = flat.descriptors.size();
@@ -399,7 +407,8 @@ int run(const Options& o) {
               b += dir.base[k + 1] - dir.base[k];
               w = std::max<uint64_t>(w, dir.width[k]);
             }
-            line += " h" + std::to_string(h) + " " + std::to_string(b) + " B (ref " + std::to_string(w) + " bits)";
+            line += " h" + std::to_string(h) + " " + std::to_string(b) + " B (ref " + std::to_string(w) +
+                    " bits)";
           }
           // Records and references per height (4-state regions), and how the leaf references spread.
           {
@@ -422,8 +431,8 @@ int run(const Options& o) {
                 ++recs;
                 refs += n;
               }
-              line += " [h" + std::to_string(h) + ": " + std::to_string(recs) + " records, " + std::to_string(refs) +
-                      " refs]";
+              line += " [h" + std::to_string(h) + ": " + std::to_string(recs) + " records, " +
+                      std::to_string(refs) + " refs]";
             }
             std::sort(leafRefs.rbegin(), leafRefs.rend());
             uint64_t total = 0, top = 0, once = 0;
@@ -432,13 +441,14 @@ int run(const Options& o) {
               if (i < 256) top += leafRefs[i];
               once += leafRefs[i] == 1;
             }
-            line += " leaves " + std::to_string(leafRefs.size()) + ", refs " + std::to_string(total) + ", to top-256 " +
-                    std::to_string(top) + ", leaves referenced once " + std::to_string(once);
+            line += " leaves " + std::to_string(leafRefs.size()) + ", refs " + std::to_string(total) +
+                    ", to top-256 " + std::to_string(top) + ", leaves referenced once " +
+                    std::to_string(once);
           }
           uint64_t flatMaps = 0;
           for (const auto& d : a->maps()) flatMaps += d.kind == somm::MapKind::Flat;
-          line += ", other " + std::to_string(a->dataBytes() - dir.base[somm::encode::kSdagRegions]) + " B, " +
-                  std::to_string(flatMaps) + " maps flat, indices+descriptors " +
+          line += ", other " + std::to_string(a->dataBytes() - dir.base[somm::encode::kSdagRegions]) +
+                  " B, " + std::to_string(flatMaps) + " maps flat, indices+descriptors " +
                   std::to_string(a->byteSize() - a->dataBytes() - a->paddingBytes()) + " B\n";
           std::fputs(line.c_str(), stderr);
         }
@@ -472,7 +482,8 @@ int run(const Options& o) {
         }
         x[somm::encodingName(e)] = std::move(c);
       }
-      x["xz-9"] = {{"bytes", r.xz}, {"ratio_to_flat", r.bytes[0] ? double(r.xz) / double(r.bytes[0]) : 0.0},
+      x["xz-9"] = {{"bytes", r.xz},
+                   {"ratio_to_flat", r.bytes[0] ? double(r.xz) / double(r.bytes[0]) : 0.0},
                    {"random_access", false}};
       rs.push_back(std::move(x));
     }
@@ -517,8 +528,9 @@ int run(const Options& o) {
       out.put(buf);
       for (Encoding e : somm::kAllEncodings) {
         std::snprintf(buf, sizeof buf, " %5.3f/%5.3f/%5.2f %5.0f(%4.2fx)",
-                      r.ratioTo(e, r.bytes[size_t(Encoding::Dfs)]), r.ratioTo(e, r.bytes[size_t(Encoding::Csm)]),
-                      r.ratioTo(e, r.xz), r.ns[size_t(e)], r.ns[0] > 0 ? r.ns[size_t(e)] / r.ns[0] : 0.0);
+                      r.ratioTo(e, r.bytes[size_t(Encoding::Dfs)]),
+                      r.ratioTo(e, r.bytes[size_t(Encoding::Csm)]), r.ratioTo(e, r.xz), r.ns[size_t(e)],
+                      r.ns[0] > 0 ? r.ns[size_t(e)] / r.ns[0] : 0.0);
         out.put(buf);
       }
       out.put("\n");
@@ -537,13 +549,15 @@ int run(const Options& o) {
 
 void setup(CLI::App& root) {
   auto opts = std::make_shared<Options>();
-  CLI::App* cmd = root.add_subcommand("compare",
-                                      "Bake a scene at several levels and formats and print the memory of "
-                                      "every encoding (flat, dfs, dfs-fast, "
-                                      "rank, hybrid, csm, sdag) of the scene-wide array: exact bytes, ratios to "
-                                      "flat, dfs, csm and xz -9, ns per lookup. SCENE is a "
-                                      ".gltf/.glb/.obj file or procedural:leaf-cards[:N].");
-  cmd->add_option("scene", opts->scenes, "scene file(s) (several files are one scene) or procedural:leaf-cards[:N]")
+  CLI::App* cmd =
+      root.add_subcommand("compare",
+                          "Bake a scene at several levels and formats and print the memory of "
+                          "every encoding (flat, dfs, dfs-fast, "
+                          "rank, hybrid, csm, sdag) of the scene-wide array: exact bytes, ratios to "
+                          "flat, dfs, csm and xz -9, ns per lookup. SCENE is a "
+                          ".gltf/.glb/.obj file or procedural:leaf-cards[:N].");
+  cmd->add_option("scene", opts->scenes,
+                  "scene file(s) (several files are one scene) or procedural:leaf-cards[:N]")
       ->required();
   cmd->add_option("--levels", opts->levels, "comma list of subdivision levels 0..12 (default 4,6,8,10,12)");
   cmd->add_option("--formats", opts->formats, "comma list of formats: 2 and/or 4 states (default 2,4)");
@@ -553,11 +567,13 @@ void setup(CLI::App& root) {
   cmd->add_option("--plot", opts->plot, "write a PNG plot of the ratio to flat against the level");
   cmd->add_option("--threads", opts->threads, "bake threads (0 = all)")->check(CLI::Range(0u, 1024u));
   somm::cli::addLimitOption(cmd, opts->limits);
-  cmd->add_option("--texels-per-microtri", opts->texelsPerMicroTri,
-                  "adaptive levels (as bake --texels-per-microtri): each --levels value is the cap --max-level");
+  cmd->add_option(
+      "--texels-per-microtri", opts->texelsPerMicroTri,
+      "adaptive levels (as bake --texels-per-microtri): each --levels value is the cap --max-level");
   cmd->add_flag("--sdag-stats", opts->sdagStats, "print the bytes of the sdag DAG per height to stderr");
-  cmd->add_option("--lookups", opts->lookups,
-                  "random (u, v) lookups timed per encoding, checked against flat (0 = do not time; default 20000)");
+  cmd->add_option(
+      "--lookups", opts->lookups,
+      "random (u, v) lookups timed per encoding, checked against flat (0 = do not time; default 20000)");
   cmd->callback([opts] {
     opts->scene.clear();
     for (const std::string& p : opts->scenes) opts->scene += (opts->scene.empty() ? "" : " + ") + p;

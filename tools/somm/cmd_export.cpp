@@ -7,8 +7,8 @@
 
 #include "command.h"
 #include "file_summary.h"
-#include "somm/io.h"
 #include "somm/gltf.h"
+#include "somm/io.h"
 #include "somm/somm_file.h"
 
 namespace {
@@ -98,8 +98,9 @@ int run(const Options& o) {
     u["data_bytes"] = a.data.size();
     u["triangle_array_stride"] = 8;
     u["usage_counts"] = usageJson(a.histogram);  // VkMicromapBuildInfoEXT::pUsageCounts
-    if (!writeDir(root / ("array-" + std::to_string(ai)),
-                  {{"data.bin", a.data}, {"triangles.bin", a.descriptorBytes()}, {"usage.json", textBytes(u)}}))
+    if (!writeDir(
+            root / ("array-" + std::to_string(ai)),
+            {{"data.bin", a.data}, {"triangles.bin", a.descriptorBytes()}, {"usage.json", textBytes(u)}}))
       return kExitFailure;
   }
   // Per geometry: its OMM index buffer into its array (VkAccelerationStructureTrianglesOpacityMicromapEXT).
@@ -114,7 +115,8 @@ int run(const Options& o) {
     u["array"] = m.geometries[gi].array;
     u["format"] = uint32_t(g.format);
     u["states"] = two ? 2 : 4;
-    u["vk_format"] = two ? "VK_OPACITY_MICROMAP_FORMAT_2_STATE_EXT" : "VK_OPACITY_MICROMAP_FORMAT_4_STATE_EXT";
+    u["vk_format"] =
+        two ? "VK_OPACITY_MICROMAP_FORMAT_2_STATE_EXT" : "VK_OPACITY_MICROMAP_FORMAT_4_STATE_EXT";
     u["triangles"] = m.geometries[gi].triangleCount;
     u["index_type"] = wide ? "uint32" : "uint16";
     u["vk_index_type"] = wide ? "VK_INDEX_TYPE_UINT32" : "VK_INDEX_TYPE_UINT16";
@@ -136,15 +138,17 @@ int run(const Options& o) {
 
 void setup(CLI::App& root) {
   auto opts = std::make_shared<Options>();
-  CLI::App* cmd = root.add_subcommand("export",
-                                      "Write the Vulkan / DXR build inputs as raw files: per OMM array "
-                                      "D/array-<a>/data.bin (micromap data), triangles.bin (8-byte "
-                                      "VkMicromapTriangleEXT descriptors) and usage.json (its geometries, "
-                                      "usage histogram); per geometry D/geometry-<g>/index.bin (its 16- or "
-                                      "32-bit OMM index buffer into its array, special indices -1..-4) and "
-                                      "usage.json (array, format, index type, its triangle usage histogram).");
+  CLI::App* cmd =
+      root.add_subcommand("export",
+                          "Write the Vulkan / DXR build inputs as raw files: per OMM array "
+                          "D/array-<a>/data.bin (micromap data), triangles.bin (8-byte "
+                          "VkMicromapTriangleEXT descriptors) and usage.json (its geometries, "
+                          "usage histogram); per geometry D/geometry-<g>/index.bin (its 16- or "
+                          "32-bit OMM index buffer into its array, special indices -1..-4) and "
+                          "usage.json (array, format, index type, its triangle usage histogram).");
   cmd->add_option("file", opts->path, ".somm file")->required();
-  cmd->add_option("--dir,-d", opts->dir, "output directory: new or empty (written whole or not at all)")->required();
+  cmd->add_option("--dir,-d", opts->dir, "output directory: new or empty (written whole or not at all)")
+      ->required();
   cmd->callback([opts] { somm::cli::setExitCode(run(*opts)); });
 }
 

@@ -79,7 +79,8 @@ void setup(CLI::App& root) {
       ->check(CLI::IsMember({"nearest", "linear"}));
   cmd->add_option("--wrap", opts->wrap, "quad: repeat | clamp | mirror")
       ->check(CLI::IsMember({"repeat", "clamp", "mirror"}));
-  cmd->add_option("--cutoff", opts->cutoff, "quad: alpha cutoff")->check(CLI::Range(0.0f, 1.0f) & somm::cli::NotNan);
+  cmd->add_option("--cutoff", opts->cutoff, "quad: alpha cutoff")
+      ->check(CLI::Range(0.0f, 1.0f) & somm::cli::NotNan);
   cmd->add_option("--uv-scale", opts->uvScale, "quad: UVs span [0, K]² (K > 1 exercises the wrap mode)")
       ->check(CLI::Range(-1e6f, 1e6f) & somm::cli::NotNan);
   cmd->callback([opts] { somm::cli::setExitCode(run(*opts)); });

@@ -61,10 +61,18 @@ class PointSampler {
       case 6: {  // edges and the anti-diagonal
         const float t = rng_() % 2 ? unit() : dyadicCoord(level);
         switch (rng_() % 4) {
-          case 0: u = 0.0f, v = t; break;
-          case 1: u = t, v = 0.0f; break;
-          case 2: u = t, v = 1.0f - t; break;
-          default: u = t, v = nudge(1.0f - t); break;
+          case 0:
+            u = 0.0f, v = t;
+            break;
+          case 1:
+            u = t, v = 0.0f;
+            break;
+          case 2:
+            u = t, v = 1.0f - t;
+            break;
+          default:
+            u = t, v = nudge(1.0f - t);
+            break;
         }
         if (rng_() % 2) std::swap(u, v);
         break;
@@ -121,18 +129,19 @@ class PointSampler {
   float nudge(float x) {
     const int steps = int(rng_() % 3) + 1;
     for (int i = 0; i < steps; ++i)
-      x = std::nextafter(x, rng_() % 2 ? std::numeric_limits<float>::infinity()
-                                       : -std::numeric_limits<float>::infinity());
+      x = std::nextafter(
+          x, rng_() % 2 ? std::numeric_limits<float>::infinity() : -std::numeric_limits<float>::infinity());
     return x;
   }
   float special() {
     static const uint32_t kBits[] = {
-        0x7fc00000u, 0xffc00000u, 0x7f800001u, 0x7fbfffffu, 0xff800001u,  // quiet / signalling NaNs, both signs
-        0x7f800000u, 0xff800000u,                                          // ±inf
-        0x00000000u, 0x80000000u,                                          // ±0
-        0x00000001u, 0x007fffffu, 0x80000001u, 0x00400000u,                // denormals
-        0x7f7fffffu, 0xff7fffffu,                                          // ±FLT_MAX
-        0x3f800000u, 0x3f7fffffu, 0x3f800001u, 0xbf800000u,                // 1, 1 - ulp, 1 + ulp, -1
+        0x7fc00000u, 0xffc00000u, 0x7f800001u, 0x7fbfffffu,
+        0xff800001u,                                         // quiet / signalling NaNs, both signs
+        0x7f800000u, 0xff800000u,                            // ±inf
+        0x00000000u, 0x80000000u,                            // ±0
+        0x00000001u, 0x007fffffu, 0x80000001u, 0x00400000u,  // denormals
+        0x7f7fffffu, 0xff7fffffu,                            // ±FLT_MAX
+        0x3f800000u, 0x3f7fffffu, 0x3f800001u, 0xbf800000u,  // 1, 1 - ulp, 1 + ulp, -1
         0x3f000000u, 0x3effffffu, 0x3f000001u, 0x33800000u, 0x33000000u};  // 0.5 ± ulp, 2^-24, 2^-25
     return bitsToFloat(kBits[rng_() % (sizeof kBits / sizeof kBits[0])]);
   }
@@ -146,7 +155,8 @@ std::vector<ShaderLanguage> languages(const std::string& s) {
 
 // Queries over all arrays of one encoding: array chosen in proportion to its triangles, then a uniform
 // triangle and a point at that triangle's level. Deterministic for a seed (the same for every encoding).
-std::vector<Query> makeQueries(const somm::cli::GpuEncoding& ge, uint64_t samples, uint64_t seed, bool stress) {
+std::vector<Query> makeQueries(const somm::cli::GpuEncoding& ge, uint64_t samples, uint64_t seed,
+                               bool stress) {
   PointSampler ps(seed);
   uint64_t total = 0;
   for (const somm::EncodedArray& a : ge.arrays) total += a.triangleCount();
@@ -190,14 +200,17 @@ struct CheckOptions {
 };
 
 void reportMismatch(const char* what, const char* lang, const Query& q, uint32_t cpu, uint32_t gpu) {
-  std::fprintf(stderr, "somm gpu-check: %s %s: triangle %" PRIu32 " u=%a (0x%08" PRIx32 ") v=%a (0x%08" PRIx32
-                       ") w=%" PRIu32 ": cpu %" PRIu32 ", gpu %" PRIu32 "\n",
-               what, lang, q.triangle, double(q.u), floatToBits(q.u), double(q.v), floatToBits(q.v), q.w, cpu, gpu);
+  std::fprintf(stderr,
+               "somm gpu-check: %s %s: triangle %" PRIu32 " u=%a (0x%08" PRIx32 ") v=%a (0x%08" PRIx32
+               ") w=%" PRIu32 ": cpu %" PRIu32 ", gpu %" PRIu32 "\n",
+               what, lang, q.triangle, double(q.u), floatToBits(q.u), double(q.v), floatToBits(q.v), q.w, cpu,
+               gpu);
 }
 
 bool validEncodingOption(const char* command, const std::string& e) {
   if (e == "all" || somm::parseEncodingName(e)) return true;
-  somm::cli::printError(command, "--encoding '" + e + "' is not one of flat, dfs, dfs-fast, rank, hybrid, all");
+  somm::cli::printError(command,
+                        "--encoding '" + e + "' is not one of flat, dfs, dfs-fast, rank, hybrid, all");
   return false;
 }
 
@@ -242,7 +255,8 @@ int runCheck(const CheckOptions& o) {
       uint64_t bad = 0;
       for (size_t i = 0; i < q.size(); ++i) {
         const uint32_t cpu = somm::baryToIndex(q[i].u, q[i].v, q[i].w);
-        if ((*r)[i] != cpu && bad++ < 5) reportMismatch("bird", somm::gpu::shaderLanguageName(l), q[i], cpu, (*r)[i]);
+        if ((*r)[i] != cpu && bad++ < 5)
+          reportMismatch("bird", somm::gpu::shaderLanguageName(l), q[i], cpu, (*r)[i]);
       }
       ok = ok && bad == 0;
       out.put(std::string("bird ") + somm::gpu::shaderLanguageName(l) + ": ");
@@ -267,7 +281,8 @@ int runCheck(const CheckOptions& o) {
         const somm::EncodedArray& a = ge.arrays[arrayOf(ge, q[i].w)];
         const uint32_t cpu = uint32_t(a.stateUV(q[i].triangle, q[i].u, q[i].v));
         if ((*r)[i] != cpu && bad++ < 5)
-          reportMismatch(somm::encodingName(ge.encoding), somm::gpu::shaderLanguageName(l), q[i], cpu, (*r)[i]);
+          reportMismatch(somm::encodingName(ge.encoding), somm::gpu::shaderLanguageName(l), q[i], cpu,
+                         (*r)[i]);
       }
       ok = ok && bad == 0;
       out.put(std::string(somm::encodingName(ge.encoding)) + " " + somm::gpu::shaderLanguageName(l) + ": ");
@@ -318,8 +333,8 @@ int runBench(const BenchOptions& o) {
   }
   Output out;
   out.put("device: " + device->name() + " (" + device->typeName() + ")\n");
-  out.put("uniform random (triangle, u, v) lookups; fastest of " + std::to_string(o.repeats) + " dispatches of " +
-          std::to_string(o.samples) + "\n");
+  out.put("uniform random (triangle, u, v) lookups; fastest of " + std::to_string(o.repeats) +
+          " dispatches of " + std::to_string(o.samples) + "\n");
   for (ShaderLanguage l : languages(o.shader)) {
     double flatRate = 0;
     for (const GpuEncoding& ge : *encodings) {
@@ -333,8 +348,9 @@ int runBench(const BenchOptions& o) {
       const double rate = seconds > 0 ? double(q.size()) / seconds : 0;
       if (ge.encoding == somm::Encoding::Flat) flatRate = rate;
       char line[160];
-      std::snprintf(line, sizeof line, "%-9s %s: %10.4g lookups/s  %.3f x flat\n", somm::encodingName(ge.encoding),
-                    somm::gpu::shaderLanguageName(l), rate, flatRate > 0 ? rate / flatRate : 0.0);
+      std::snprintf(line, sizeof line, "%-9s %s: %10.4g lookups/s  %.3f x flat\n",
+                    somm::encodingName(ge.encoding), somm::gpu::shaderLanguageName(l), rate,
+                    flatRate > 0 ? rate / flatRate : 0.0);
       out.put(line);
       out.flush();
     }
@@ -346,32 +362,38 @@ void setupCheck(CLI::App& root) {
   auto o = std::make_shared<CheckOptions>();
   CLI::App* cmd = root.add_subcommand(
       "gpu-check",
-      "Run the shader lookups (shaders/somm.glsl and somm.hlsl, compiled to SPIR-V at build time) on the Vulkan "
-      "device and compare every result with the CPU: the bird index at every level, and stateUV of each stored "
+      "Run the shader lookups (shaders/somm.glsl and somm.hlsl, compiled to SPIR-V at build time) on the "
+      "Vulkan "
+      "device and compare every result with the CPU: the bird index at every level, and stateUV of each "
+      "stored "
       "encoding on random, dyadic-tie, edge, out-of-range and NaN/inf points. Prints '<what> <shader>: N "
       "mismatches'; exit 1 on any mismatch or when there is no Vulkan device.");
   cmd->add_option("file", o->path, ".somm file")->required();
-  cmd->add_option("--encoding,-e", o->encoding, "flat, dfs, dfs-fast, rank, hybrid or all (default: all stored)");
+  cmd->add_option("--encoding,-e", o->encoding,
+                  "flat, dfs, dfs-fast, rank, hybrid or all (default: all stored)");
   cmd->add_option("--samples,-n", o->samples, "lookups per encoding and shader (default 100000)")
       ->check(CLI::Range(uint64_t(1), uint64_t(1) << 26));
-  cmd->add_option("--shader", o->shader, "glsl, hlsl or both (default)")->check(CLI::IsMember({"glsl", "hlsl", "both"}));
+  cmd->add_option("--shader", o->shader, "glsl, hlsl or both (default)")
+      ->check(CLI::IsMember({"glsl", "hlsl", "both"}));
   cmd->add_option("--seed", o->seed, "random seed (default 1)");
   cmd->callback([o] { somm::cli::setExitCode(runCheck(*o)); });
 }
 
 void setupBench(CLI::App& root) {
   auto o = std::make_shared<BenchOptions>();
-  CLI::App* cmd = root.add_subcommand(
-      "gpu-bench",
-      "Lookups per second of each stored encoding in the compute shader on the Vulkan device, as ratios to flat "
-      "in the same run (on lavapipe these are CPU figures).");
+  CLI::App* cmd = root.add_subcommand("gpu-bench",
+                                      "Lookups per second of each stored encoding in the compute shader on "
+                                      "the Vulkan device, as ratios to flat "
+                                      "in the same run (on lavapipe these are CPU figures).");
   cmd->add_option("file", o->path, ".somm file")->required();
-  cmd->add_option("--encoding,-e", o->encoding, "flat, dfs, dfs-fast, rank, hybrid or all (default: all stored)");
+  cmd->add_option("--encoding,-e", o->encoding,
+                  "flat, dfs, dfs-fast, rank, hybrid or all (default: all stored)");
   cmd->add_option("--samples,-n", o->samples, "lookups per dispatch (default 1048576)")
       ->check(CLI::Range(uint64_t(1), uint64_t(1) << 26));
   cmd->add_option("--repeat,-r", o->repeats, "dispatches per encoding; the fastest counts (default 5)")
       ->check(CLI::Range(1u, 1000u));
-  cmd->add_option("--shader", o->shader, "glsl (default), hlsl or both")->check(CLI::IsMember({"glsl", "hlsl", "both"}));
+  cmd->add_option("--shader", o->shader, "glsl (default), hlsl or both")
+      ->check(CLI::IsMember({"glsl", "hlsl", "both"}));
   cmd->callback([o] { somm::cli::setExitCode(runBench(*o)); });
 }
 

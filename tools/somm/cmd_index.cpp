@@ -41,8 +41,8 @@ int run(const Options& o) {
     if (b.empty() || !extra.empty() || !parseFloat(a, u) || !parseFloat(b, v)) {
       drain();
       out.flush();
-      printError("index", "stdin line " + std::to_string(in.lineNumber()) + ": expected two floats 'u v', got '" +
-                              excerpt(line) + "'");
+      printError("index", "stdin line " + std::to_string(in.lineNumber()) +
+                              ": expected two floats 'u v', got '" + excerpt(line) + "'");
       return kExitUsage;
     }
     us.push_back(u);
@@ -57,9 +57,12 @@ void setup(CLI::App& root) {
   auto opts = std::make_shared<Options>();
   CLI::App* cmd = root.add_subcommand(
       "index",
-      "Map barycentrics to bird-curve micro-triangle indices. Reads one 'u v' pair per line from stdin (decimal or "
+      "Map barycentrics to bird-curve micro-triangle indices. Reads one 'u v' pair per line from stdin "
+      "(decimal or "
       "hex floats, parsed like strtof; u, v = weights of vertices 1 and 2) and prints one index per line.");
-  cmd->add_option("--level,-l", opts->level, "subdivision level 0..12")->required()->check(CLI::Range(0u, somm::kMaxLevel));
+  cmd->add_option("--level,-l", opts->level, "subdivision level 0..12")
+      ->required()
+      ->check(CLI::Range(0u, somm::kMaxLevel));
   cmd->callback([opts] { somm::cli::setExitCode(run(*opts)); });
 }
 

@@ -6,10 +6,10 @@
 #include <string>
 
 #include "command.h"
-#include "somm/io.h"
 #include "encodings.h"
 #include "file_summary.h"
 #include "somm/gltf.h"
+#include "somm/io.h"
 #include "somm/somm_file.h"
 
 namespace {
@@ -44,8 +44,9 @@ void printGeometry(somm::cli::Output& out, const somm::cli::GeometrySummary& s, 
   out.put(indent + "micromaps: " + to_string(s.micromapTriangles) + " triangles reference " +
           to_string(s.distinctMicromaps) + " distinct micromaps; level histogram (level:triangles): " +
           somm::cli::levelList(s.levelTriangles) + "\n");
-  out.put(indent + "unknown: " + to_string(s.unknownMicroTriangles) + " of the " + to_string(s.microTriangles) +
-          " micro-triangles of the triangles with micromaps (" + percent(s.unknownFraction()) + ")");
+  out.put(indent + "unknown: " + to_string(s.unknownMicroTriangles) + " of the " +
+          to_string(s.microTriangles) + " micro-triangles of the triangles with micromaps (" +
+          percent(s.unknownFraction()) + ")");
   if (s.bake.invalidUvTriangles)
     out.put(", " + to_string(s.bake.invalidUvTriangles) + " triangles with NaN/inf UVs");
   out.put("\n");
@@ -73,8 +74,8 @@ std::string encodingsLine(const somm::cli::EncodingSizes& s) {
 }
 
 std::string referenceLine(const somm::cli::EncodingSizes& s) {
-  return "reference compressors of the flat encoding (not random access): zstd -19 " + std::to_string(s.zstd) +
-         " B, xz -9 " + std::to_string(s.xz) + " B";
+  return "reference compressors of the flat encoding (not random access): zstd -19 " +
+         std::to_string(s.zstd) + " B, xz -9 " + std::to_string(s.xz) + " B";
 }
 
 std::string indexBits(somm::IndexType t) {
@@ -174,10 +175,11 @@ int run(const Options& o) {
     t["geometries"] = f.geometries.size();
     t["arrays"] = m.arrays.size();
     t["unique_micromaps"] = sum.arrayTotal.uniqueMicromaps;
-    t["bytes"] = {{"data", sum.arrayTotal.dataBytes},
-                  {"descriptors", sum.arrayTotal.descriptorBytes},
-                  {"index_buffers", sum.geometryTotal.indexBytes},
-                  {"total", sum.arrayTotal.dataBytes + sum.arrayTotal.descriptorBytes + sum.geometryTotal.indexBytes}};
+    t["bytes"] = {
+        {"data", sum.arrayTotal.dataBytes},
+        {"descriptors", sum.arrayTotal.descriptorBytes},
+        {"index_buffers", sum.geometryTotal.indexBytes},
+        {"total", sum.arrayTotal.dataBytes + sum.arrayTotal.descriptorBytes + sum.geometryTotal.indexBytes}};
     t["encoding_sizes"] = encodingSizesJson(sizeTotal);
     j["total"] = t;
     out.put(dumpJson(j));
@@ -185,8 +187,9 @@ int run(const Options& o) {
     return kExitOk;
   }
 
-  out.put(o.path + ": " + (version ? ".somm version " + std::to_string(version) : src->container) + ", written by '" +
-          somm::escapeName(f.toolVersion) + "' from '" + somm::escapeName(f.sourcePath) + "'\n");
+  out.put(o.path + ": " + (version ? ".somm version " + std::to_string(version) : src->container) +
+          ", written by '" + somm::escapeName(f.toolVersion) + "' from '" + somm::escapeName(f.sourcePath) +
+          "'\n");
   if (!f.bakeOptions.empty()) {
     out.put("bake options:");
     for (const auto& [k, v] : f.bakeOptions) out.put(" " + k + "=" + v);
@@ -203,14 +206,15 @@ int run(const Options& o) {
   }
   for (uint32_t i = 0; i < f.geometries.size(); ++i) {
     const somm::GeometryInfo& g = f.geometries[i];
-    out.put("geometry " + std::to_string(i) + " '" + somm::escapeName(g.name) + "' (material '" + somm::escapeName(g.material) +
-            "'): " + std::to_string(g.triangleCount) + " triangles at " +
-            std::to_string(m.geometries[i].firstTriangle) + " in array " + std::to_string(m.geometries[i].array) +
-            ", " + std::to_string(statesOf(g.format)) + "-state, levels " + std::to_string(g.minLevel) + ".." +
-            std::to_string(g.maxLevel) + ", cutoff " + floatText(g.cutoff) + ", " +
-            filterName(g.sampler.filter) + ", wrap " + wrapName(g.sampler.wrapS) + "/" +
-            wrapName(g.sampler.wrapT) + ", " + indexBits(geometryIndexType(m, i)) + "-bit indices (" +
-            bytesText(sum.geometries[i].indexBytes) + ")\n");
+    out.put("geometry " + std::to_string(i) + " '" + somm::escapeName(g.name) + "' (material '" +
+            somm::escapeName(g.material) + "'): " + std::to_string(g.triangleCount) + " triangles at " +
+            std::to_string(m.geometries[i].firstTriangle) + " in array " +
+            std::to_string(m.geometries[i].array) + ", " + std::to_string(statesOf(g.format)) +
+            "-state, levels " + std::to_string(g.minLevel) + ".." + std::to_string(g.maxLevel) + ", cutoff " +
+            floatText(g.cutoff) + ", " + filterName(g.sampler.filter) + ", wrap " +
+            wrapName(g.sampler.wrapS) + "/" + wrapName(g.sampler.wrapT) + ", " +
+            indexBits(geometryIndexType(m, i)) + "-bit indices (" + bytesText(sum.geometries[i].indexBytes) +
+            ")\n");
     printGeometry(out, sum.geometries[i], "  ");
   }
   const GeometrySummary& t = sum.geometryTotal;
@@ -220,12 +224,14 @@ int run(const Options& o) {
   out.put("  special indices (triangles): transparent " + std::to_string(t.special[0]) + ", opaque " +
           std::to_string(t.special[1]) + ", unknown-transparent " + std::to_string(t.special[2]) +
           ", unknown-opaque " + std::to_string(t.special[3]) + "\n");
-  out.put("  unknown: " + std::to_string(t.unknownMicroTriangles) + " of the " + std::to_string(t.microTriangles) +
-          " micro-triangles of the " + std::to_string(t.micromapTriangles) + " triangles with micromaps (" +
-          percent(t.unknownFraction()) + ")\n");
+  out.put("  unknown: " + std::to_string(t.unknownMicroTriangles) + " of the " +
+          std::to_string(t.microTriangles) + " micro-triangles of the " +
+          std::to_string(t.micromapTriangles) + " triangles with micromaps (" + percent(t.unknownFraction()) +
+          ")\n");
   out.put("  build buffers: data " + bytesText(sum.arrayTotal.dataBytes) + ", descriptors " +
-          bytesText(sum.arrayTotal.descriptorBytes) + ", index buffers " + bytesText(t.indexBytes) + "; sum " +
-          bytesText(sum.arrayTotal.dataBytes + sum.arrayTotal.descriptorBytes + t.indexBytes) + "\n");
+          bytesText(sum.arrayTotal.descriptorBytes) + ", index buffers " + bytesText(t.indexBytes) +
+          "; sum " + bytesText(sum.arrayTotal.dataBytes + sum.arrayTotal.descriptorBytes + t.indexBytes) +
+          "\n");
   if (m.arrays.size() > 1) {
     out.put("  " + encodingsLine(sizeTotal) + "\n");
     if (o.referenceCompressors) out.put("  " + referenceLine(sizeTotal) + "\n");

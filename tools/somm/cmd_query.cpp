@@ -40,7 +40,8 @@ int run(const Options& o) {
   }
   const auto enc = somm::parseEncodingName(o.encoding);
   if (!enc) {
-    printError("query", "--encoding '" + o.encoding + "' is not one of flat, dfs, dfs-fast, rank, hybrid, csm, sdag");
+    printError("query",
+               "--encoding '" + o.encoding + "' is not one of flat, dfs, dfs-fast, rank, hybrid, csm, sdag");
     return kExitUsage;
   }
   // The geometry's triangles live in its array at firstTriangle + T (a scene-wide array holds every geometry).
@@ -86,9 +87,12 @@ void setup(CLI::App& root) {
                           "3 unknown-opaque (special indices resolved; a 2-state geometry prints 0 or 1).");
   cmd->add_option("file", opts->path, ".somm file")->required();
   cmd->add_option("--geometry,-g", opts->geometry, "geometry index (see somm info)")->required();
-  cmd->add_option("--triangle,-t", opts->triangle, "triangle index within the geometry (0 .. its triangle count - 1)")->required();
-  cmd->add_option("--encoding,-e", opts->encoding,
-                  "answer from this stored encoding: flat (default), dfs, dfs-fast, rank, hybrid, csm or sdag");
+  cmd->add_option("--triangle,-t", opts->triangle,
+                  "triangle index within the geometry (0 .. its triangle count - 1)")
+      ->required();
+  cmd->add_option(
+      "--encoding,-e", opts->encoding,
+      "answer from this stored encoding: flat (default), dfs, dfs-fast, rank, hybrid, csm or sdag");
   cmd->callback([opts] { somm::cli::setExitCode(run(*opts)); });
 }
 

@@ -54,7 +54,9 @@ int run(const Options& o) {
   const somm::TraceCounters& c = r.counters;
   const double rays = double(c.rays());
   if (c.primaryHits == 0)
-    printError("render", o.trace.scene + ": warning: no primary ray hit the scene (the image is empty sky); check --camera");
+    printError(
+        "render",
+        o.trace.scene + ": warning: no primary ray hit the scene (the image is empty sky); check --camera");
   Output out;
   if (o.trace.json) {
     nlohmann::json j;
@@ -99,14 +101,14 @@ int run(const Options& o) {
 
 void setup(CLI::App& root) {
   auto opts = std::make_shared<Options>();
-  CLI::App* cmd =
-      root.add_subcommand("render",
-                          "Ray trace a scene on the CPU (Embree) with one any-hit method and write a PNG. "
-                          "Methods: opaque, texture, "
-                          "bitmask, omm2-<encoding>, omm4-<encoding>, state-overlay (hits coloured by "
-                          "micromap state, flat colours "
-                          "with a legend: green opaque, orange unknown-opaque, red unknown-transparent, grey not "
-                          "alpha-tested).");
+  CLI::App* cmd = root.add_subcommand(
+      "render",
+      "Ray trace a scene on the CPU (Embree) with one any-hit method and write a PNG. "
+      "Methods: opaque, texture, "
+      "bitmask, omm2-<encoding>, omm4-<encoding>, state-overlay (hits coloured by "
+      "micromap state, flat colours "
+      "with a legend: green opaque, orange unknown-opaque, red unknown-transparent, grey not "
+      "alpha-tested).");
   somm::cli::addTraceOptions(cmd, opts->trace);
   cmd->add_option("--method,-m", opts->method, "any-hit method (default texture)");
   cmd->add_option("--output,-o", opts->output, "output PNG")->required();

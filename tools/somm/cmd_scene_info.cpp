@@ -6,10 +6,10 @@
 #include <string>
 
 #include "command.h"
-#include "somm/io.h"
 #include "limits_cli.h"
-#include "somm/trace.h"
+#include "somm/io.h"
 #include "somm/scene.h"
+#include "somm/trace.h"
 
 namespace {
 
@@ -127,15 +127,15 @@ int run(const Options& o) {
   out.put(to_string(s.geometries.size()) + " geometries, " + to_string(triangles) + " triangles (" +
           to_string(tested) + " alpha-tested, " + to_string(failing) + " of them can fail the alpha test), " +
           to_string(s.materials.size()) + " materials (" + to_string(testedMaterials) + " alpha-tested, " +
-          to_string(failingMaterials) + " can fail; the others are traced opaque), " + to_string(s.instances.size()) +
-          " instances\n");
+          to_string(failingMaterials) + " can fail; the others are traced opaque), " +
+          to_string(s.instances.size()) + " instances\n");
   out.put("geometries:\n");
   for (size_t i = 0; i < s.geometries.size(); ++i) {
     const somm::Geometry& g = s.geometries[i];
     const somm::Material& m = s.materials[g.material];
-    out.put("  " + to_string(i) + "  " + somm::escapeName(g.name) + ": " + to_string(g.triangleCount()) + " triangles, " +
-            to_string(g.positions.size() / 3) + " vertices, material " + to_string(g.material) + " '" +
-            somm::escapeName(m.name) + "' (" + modeName(m.alphaMode) + ")\n");
+    out.put("  " + to_string(i) + "  " + somm::escapeName(g.name) + ": " + to_string(g.triangleCount()) +
+            " triangles, " + to_string(g.positions.size() / 3) + " vertices, material " +
+            to_string(g.material) + " '" + somm::escapeName(m.name) + "' (" + modeName(m.alphaMode) + ")\n");
   }
   out.put("materials:\n");
   for (size_t i = 0; i < s.materials.size(); ++i) {
@@ -145,8 +145,8 @@ int run(const Options& o) {
       line += ", cutoff " + fmt("%g", m.alphaCutoff);
       if (m.alpha)
         line += ", alpha " + to_string(m.alpha->width) + "x" + to_string(m.alpha->height) + " from " +
-                somm::escapeName(m.alphaSource) + ", " + filterName(m.sampler.filter) + ", wrap " + wrapName(m.sampler.wrapS) +
-                "/" + wrapName(m.sampler.wrapT);
+                somm::escapeName(m.alphaSource) + ", " + filterName(m.sampler.filter) + ", wrap " +
+                wrapName(m.sampler.wrapS) + "/" + wrapName(m.sampler.wrapT);
       else
         line += ", constant alpha " + fmt("%g", m.baseColorFactor[3]);
       line += canFail[i] ? "; can fail the alpha test" : "; never fails the alpha test (traced opaque)";

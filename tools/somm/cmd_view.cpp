@@ -10,13 +10,13 @@
 
 #include "command.h"
 #include "legend.h"
-#include "somm/state_colours.h"
 #include "limits_cli.h"
-#include "somm/io.h"
 #include "somm/bird.h"
-#include "somm/scene.h"
 #include "somm/gltf.h"
+#include "somm/io.h"
+#include "somm/scene.h"
 #include "somm/somm_file.h"
+#include "somm/state_colours.h"
 
 namespace {
 
@@ -162,7 +162,8 @@ int run(const Options& o) {
     const double area = (px[1] - px[0]) * (py[2] - py[0]) - (px[2] - px[0]) * (py[1] - py[0]);
     if (std::abs(area) < 1e-12) continue;
     const int32_t index = maps.indices(geometry)[size_t(t)];
-    const uint32_t level = index >= 0 ? maps.arrayOf(geometry).descriptors[size_t(index)].subdivisionLevel : 0;
+    const uint32_t level =
+        index >= 0 ? maps.arrayOf(geometry).descriptors[size_t(index)].subdivisionLevel : 0;
     const bool outlineMicro = std::abs(area) / 2.0 / double(somm::microTriangleCount(level)) >= 24.0;
     const int64_t x0 = std::max<int64_t>(0, int64_t(std::floor(std::min({px[0], px[1], px[2]}))));
     const int64_t x1 = std::min<int64_t>(int64_t(w) - 1, int64_t(std::ceil(std::max({px[0], px[1], px[2]}))));

@@ -17,8 +17,8 @@ namespace somm::cli {
 
 // Documented exit codes.
 inline constexpr int kExitOk = 0;
-inline constexpr int kExitFailure = 1;   // the operation failed (I/O, corrupt or unsupported input file)
-inline constexpr int kExitUsage = 2;     // bad command line or malformed text input
+inline constexpr int kExitFailure = 1;  // the operation failed (I/O, corrupt or unsupported input file)
+inline constexpr int kExitUsage = 2;    // bad command line or malformed text input
 
 // CLI::Range lets NaN through (every comparison with NaN is false): add `& NotNan` to float range checks.
 inline const CLI::Validator NotNan(
@@ -51,7 +51,10 @@ class Output {
     if (buf_.size() >= (1 << 16)) flush();
   }
   void putUInt(uint64_t v);
-  void putChar(char c) { buf_.push_back(c); if (buf_.size() >= (1 << 16)) flush(); }
+  void putChar(char c) {
+    buf_.push_back(c);
+    if (buf_.size() >= (1 << 16)) flush();
+  }
   void flush();
 
  private:

@@ -1,11 +1,11 @@
 // SPDX-License-Identifier: MIT
 #include "encodings.h"
 
-#include <span>
 #include <lzma.h>
 #include <zstd.h>
 
 #include <algorithm>
+#include <span>
 
 namespace somm::cli {
 
@@ -130,7 +130,8 @@ void EncodingSizes::add(const EncodingSizes& o) {
   std::sort(stored.begin(), stored.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
 }
 
-Result<EncodingSizes> encodingSizes(const SommFile& file, uint32_t array, std::string_view what, bool compressed) {
+Result<EncodingSizes> encodingSizes(const SommFile& file, uint32_t array, std::string_view what,
+                                    bool compressed) {
   EncodingSizes s;
   auto flat = loadEncoding(file, array, Encoding::Flat, what);
   if (!flat) return flat.error();

@@ -51,7 +51,8 @@ struct EncodingSizes {
 };
 // Sizes of the encodings stored for array `array` (flat always), with the compressed references when
 // `compressed`. A stored section that does not parse is listed in `invalid` (info still describes the rest).
-Result<EncodingSizes> encodingSizes(const SommFile& file, uint32_t array, std::string_view what, bool compressed);
+Result<EncodingSizes> encodingSizes(const SommFile& file, uint32_t array, std::string_view what,
+                                    bool compressed);
 // {"flat": {"bytes": N, "ratio_to_flat": 1}, "rank": {...}, ..., "zstd-19": {..., "random_access": false},
 //  "xz-9": {...}}; an unreadable section: "rank": {"error": "..."}
 nlohmann::json encodingSizesJson(const EncodingSizes& s);

@@ -118,7 +118,8 @@ FileSummary summarizeFile(const SommFile& f) {
 }
 
 namespace {
-nlohmann::json levelsJson(const std::array<uint64_t, 13>* micromaps, const std::array<uint64_t, 13>& triangles) {
+nlohmann::json levelsJson(const std::array<uint64_t, 13>* micromaps,
+                          const std::array<uint64_t, 13>& triangles) {
   nlohmann::json levels = nlohmann::json::array();
   for (uint32_t l = 0; l < 13; ++l)
     if ((micromaps && (*micromaps)[l]) || triangles[l]) {
@@ -137,9 +138,8 @@ nlohmann::json arraySummaryJson(const ArraySummary& s) {
   j["triangles"] = s.triangles;
   j["unique_micromaps"] = s.uniqueMicromaps;
   j["level_histogram"] = levelsJson(&s.levelMicromaps, s.levelTriangles);
-  j["bytes"] = {{"data", s.dataBytes},
-                {"descriptors", s.descriptorBytes},
-                {"total", s.dataBytes + s.descriptorBytes}};
+  j["bytes"] = {
+      {"data", s.dataBytes}, {"descriptors", s.descriptorBytes}, {"total", s.dataBytes + s.descriptorBytes}};
   return j;
 }
 

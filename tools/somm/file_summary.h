@@ -27,9 +27,10 @@ struct ArraySummary {
 // One geometry's triangles (its range of its array's index buffer): what its acceleration structure build reads.
 struct GeometrySummary {
   uint64_t triangles = 0;
-  std::array<uint64_t, 4> special{};  // triangles per special index, by State (transparent, opaque, unknown-t, unknown-o)
-  uint64_t micromapTriangles = 0;     // triangles referencing a micromap
-  uint64_t distinctMicromaps = 0;     // distinct micromaps they reference (not additive over geometries)
+  std::array<uint64_t, 4>
+      special{};  // triangles per special index, by State (transparent, opaque, unknown-t, unknown-o)
+  uint64_t micromapTriangles = 0;  // triangles referencing a micromap
+  uint64_t distinctMicromaps = 0;  // distinct micromaps they reference (not additive over geometries)
   std::array<uint64_t, 13> levelTriangles{};
   // Over the micro-triangles of the triangles that reference a micromap (special-index triangles are counted in
   // `special` only): Σ 4^level, and those whose stored state is unknown.

@@ -16,7 +16,8 @@ Result<std::vector<GpuEncoding>> loadGpuEncodings(const SommFile& file, const st
         for (size_t a = 0; a < file.micromaps.arrays.size(); ++a) {
           bool has = false;
           if (a < file.encodings.size())
-            for (const EncodedSection& s : file.encodings[a]) has = has || s.id == encodingSectionId(EncodedArray::storedEncoding(e));
+            for (const EncodedSection& s : file.encodings[a])
+              has = has || s.id == encodingSectionId(EncodedArray::storedEncoding(e));
           everywhere = everywhere && has;
         }
       if (everywhere || e == Encoding::Flat) wanted.push_back(e);
@@ -24,8 +25,9 @@ Result<std::vector<GpuEncoding>> loadGpuEncodings(const SommFile& file, const st
   } else {
     const auto e = parseEncodingName(encoding);
     if (!e)
-      return makeError(ErrorCode::InvalidArgument,
-                       "--encoding '" + encoding + "' is not one of flat, dfs, dfs-fast, rank, hybrid, csm, sdag, all");
+      return makeError(
+          ErrorCode::InvalidArgument,
+          "--encoding '" + encoding + "' is not one of flat, dfs, dfs-fast, rank, hybrid, csm, sdag, all");
     wanted.push_back(*e);
   }
   std::vector<GpuEncoding> out;
@@ -37,8 +39,9 @@ Result<std::vector<GpuEncoding>> loadGpuEncodings(const SommFile& file, const st
       if (!a) return a.error();
       std::vector<uint8_t> bytes = a->serialize();
       if (ge.buffer.size() + bytes.size() + 16 > 0xfffffff0u)
-        return makeError(ErrorCode::LimitExceeded,
-                         path + ": the '" + encodingName(e) + "' arrays exceed the 4 GiB a 32-bit shader address reaches");
+        return makeError(
+            ErrorCode::LimitExceeded,
+            path + ": the '" + encodingName(e) + "' arrays exceed the 4 GiB a 32-bit shader address reaches");
       ge.bases.push_back(uint32_t(ge.buffer.size()));
       ge.buffer.insert(ge.buffer.end(), bytes.begin(), bytes.end());
       ge.buffer.resize((ge.buffer.size() + 15) & ~size_t(15), 0);

@@ -62,17 +62,19 @@ struct Canvas {
 
 }  // namespace
 
-void drawStateLegend(uint8_t* pixels, uint32_t width, uint32_t height, uint32_t channels, bool notAlphaTested) {
+void drawStateLegend(uint8_t* pixels, uint32_t width, uint32_t height, uint32_t channels,
+                     bool notAlphaTested) {
   const Canvas c{pixels, width, height, channels};
-  const int s = width >= 480 ? 2 : 1;        // pixel scale
-  const int line = 10 * s, pad = 3 * s;      // line height, panel padding
+  const int s = width >= 480 ? 2 : 1;    // pixel scale
+  const int line = 10 * s, pad = 3 * s;  // line height, panel padding
   std::vector<std::pair<const uint8_t*, std::string>> rows;
   for (State st : kLegendOrder) rows.emplace_back(stateColour(st), stateLabel(st));
   if (notAlphaTested) rows.emplace_back(kNotAlphaTestedColour, "not alpha-tested");
   size_t longest = 0;
   for (const auto& r : rows) longest = std::max(longest, r.second.size());
   const uint8_t white[3] = {255, 255, 255}, black[3] = {20, 20, 20};
-  const int panelW = pad * 2 + 9 * s + int(longest) * 6 * s, panelH = pad * 2 + int(rows.size()) * line - 3 * s;
+  const int panelW = pad * 2 + 9 * s + int(longest) * 6 * s,
+            panelH = pad * 2 + int(rows.size()) * line - 3 * s;
   c.fill(0, 0, panelW, panelH, white);
   for (size_t i = 0; i < rows.size(); ++i) {
     const int y0 = pad + int(i) * line;
@@ -82,7 +84,8 @@ void drawStateLegend(uint8_t* pixels, uint32_t width, uint32_t height, uint32_t 
       if (const Glyph* g = glyph(ch))
         for (int gy = 0; gy < 7; ++gy)
           for (int gx = 0; gx < 5; ++gx)
-            if (g->rows[gy][gx] == '#') c.fill(x + gx * s, y0 + gy * s, x + (gx + 1) * s, y0 + (gy + 1) * s, black);
+            if (g->rows[gy][gx] == '#')
+              c.fill(x + gx * s, y0 + gy * s, x + (gx + 1) * s, y0 + (gy + 1) * s, black);
       x += 6 * s;
     }
   }

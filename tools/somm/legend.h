@@ -10,6 +10,7 @@ namespace somm::cli {
 // `notAlphaTested`) into the top-left corner of an 8-bit RGB (channels 3) or RGBA (4) image, row 0 at the top, on a
 // white panel.
 // Scaled ×2 on images at least 480 pixels wide; clipped to the image.
-void drawStateLegend(uint8_t* pixels, uint32_t width, uint32_t height, uint32_t channels, bool notAlphaTested);
+void drawStateLegend(uint8_t* pixels, uint32_t width, uint32_t height, uint32_t channels,
+                     bool notAlphaTested);
 
 }  // namespace somm::cli

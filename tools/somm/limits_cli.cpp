@@ -6,9 +6,10 @@
 namespace somm::cli {
 
 void addLimitOption(CLI::App* cmd, std::vector<std::string>& assignments) {
-  cmd->add_option("--limit", assignments,
-                  std::string("raise a limit against hostile input, NAME=VALUE (repeatable; docs/hardening.md): ") +
-                      limitNames())
+  cmd->add_option(
+         "--limit", assignments,
+         std::string("raise a limit against hostile input, NAME=VALUE (repeatable; docs/hardening.md): ") +
+             limitNames())
       ->take_all()
       ->expected(1)
       ->allow_extra_args(false);
@@ -38,7 +39,7 @@ Status checkBakeWork(const Scene& scene, const BakeOptions& bo, const Limits& li
         };
         if (size_t(3) * t + 2 >= g.indices.size() || g.indices[3 * size_t(t) + 2] >= g.uvs.size() / 2) break;
         total += uint64_t(1) << (2 * adaptiveLevel(uv(0), uv(1), uv(2), m.alpha->width, m.alpha->height,
-                                                    bo.texelsPerMicroTri, bo.maxLevel));
+                                                   bo.texelsPerMicroTri, bo.maxLevel));
       }
     } else {
       total += uint64_t(n) << (2 * std::min<uint32_t>(bo.level, 12));
@@ -48,7 +49,8 @@ Status checkBakeWork(const Scene& scene, const BakeOptions& bo, const Limits& li
   if (total > limits.microTriangles)
     return makeError(ErrorCode::LimitExceeded, scene.sourcePath + ": baking would classify " +
                                                    (total > limits.microTriangles ? "more than " : "") +
-                                                   std::to_string(limits.microTriangles) + " micro-triangles, " +
+                                                   std::to_string(limits.microTriangles) +
+                                                   " micro-triangles, " +
                                                    limitHint("micro-triangles", limits.microTriangles));
   return Ok{};
 }

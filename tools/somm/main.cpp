@@ -22,9 +22,13 @@ std::vector<Entry>& registry() {
 int g_exitCode = kExitOk;
 }  // namespace
 
-Registration::Registration(const char* name, SetupFn setup) { registry().push_back({name, setup}); }
+Registration::Registration(const char* name, SetupFn setup) {
+  registry().push_back({name, setup});
+}
 
-void setExitCode(int code) { g_exitCode = code; }
+void setExitCode(int code) {
+  g_exitCode = code;
+}
 
 void printError(std::string_view command, std::string_view message) {
   // Names from files inside messages: control bytes (a newline would forge a second line, escape sequences
@@ -52,12 +56,12 @@ void Output::putUInt(uint64_t v) {
   if (buf_.size() >= (1 << 16)) flush();
 }
 
-
 }  // namespace somm::cli
 
 int main(int argc, char** argv) {
   using namespace somm::cli;
-  CLI::App app{"somm — Succinct Opacity MicroMaps: bake, compress, inspect and ray trace opacity micromaps", "somm"};
+  CLI::App app{"somm — Succinct Opacity MicroMaps: bake, compress, inspect and ray trace opacity micromaps",
+               "somm"};
   app.set_version_flag("--version", std::string("somm ") + SOMM_VERSION);
   app.require_subcommand(1);
   for (const auto& e : registry()) e.setup(app);
@@ -72,7 +76,8 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     std::string msg = e.what();
     // An unknown first word: say so instead of CLI11's "A subcommand is required".
-    if (app.get_subcommands().empty() && argc > 1 && argv[1][0] != '-') msg = "unknown command '" + excerpt(argv[1]) + "'";
+    if (app.get_subcommands().empty() && argc > 1 && argv[1][0] != '-')
+      msg = "unknown command '" + excerpt(argv[1]) + "'";
     std::fprintf(stderr, "somm: %s\n", msg.c_str());
     std::fprintf(stderr, "Run with --help for more information.\n");
     return kExitUsage;

@@ -36,9 +36,10 @@ void addTraceOptions(CLI::App* cmd, TraceCliOptions& o) {
   cmd->add_option("--cutoff", o.cutoff, "bake and trace: alpha cutoff for every material")
       ->check(CLI::Range(0.0f, 1.0f) & somm::cli::NotNan);
   cmd->add_flag("--blend-as-mask", o.blendAsMask, "treat glTF BLEND materials as MASK");
-  cmd->add_flag("--no-split", o.noSplit,
-                "micromap methods: keep triangles with a special index on the filter path (default: fully "
-                "transparent ones leave the BVH, fully opaque ones lose their filter, as with hardware micromaps)");
+  cmd->add_flag(
+      "--no-split", o.noSplit,
+      "micromap methods: keep triangles with a special index on the filter path (default: fully "
+      "transparent ones leave the BVH, fully opaque ones lose their filter, as with hardware micromaps)");
   cmd->add_flag("--json", o.json, "print JSON instead of text");
   addLimitOption(cmd, o.limits);
 }
@@ -109,7 +110,8 @@ std::shared_ptr<const SceneMicromaps> demote(const SceneMicromaps& four) {
 }  // namespace
 
 // --omm, or the scene itself when it is a glTF using EXT_mesh_opacity_micromap, or "" (bake in memory).
-static std::string embeddedMicromapPath(const char* command, const TraceCliOptions& o, bool needMicromaps, int& exitCode) {
+static std::string embeddedMicromapPath(const char* command, const TraceCliOptions& o, bool needMicromaps,
+                                        int& exitCode) {
   exitCode = kExitOk;
   if (!o.omm.empty() || !needMicromaps || !isGltfPath(o.scene)) return o.omm;
   auto read = readGltfMicromaps(o.scene);
@@ -205,7 +207,8 @@ std::unique_ptr<PreparedTrace> prepareTrace(const char* command, const TraceCliO
       flat2 = arrays;
     }
     p->micromapSource = !isGltfPath(ommPath) ? ommPath
-                        : std::string(kGltfMicromapExtension) + (o.omm.empty() ? " (embedded in " : " (") + ommPath + ")";
+                                             : std::string(kGltfMicromapExtension) +
+                                                   (o.omm.empty() ? " (embedded in " : " (") + ommPath + ")";
   }
   p->scene = std::make_shared<const Scene>(std::move(scene));
   auto world = TraceWorld::create(p->scene);
@@ -243,7 +246,8 @@ std::unique_ptr<PreparedTrace> prepareTrace(const char* command, const TraceCliO
         exitCode = kExitFailure;
         return nullptr;
       }
-      (f == Format::FourState ? flat4 : flat2) = std::make_shared<const SceneMicromaps>(std::move(baked->micromaps));
+      (f == Format::FourState ? flat4 : flat2) =
+          std::make_shared<const SceneMicromaps>(std::move(baked->micromaps));
     }
     p->bakeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     p->micromapSource = o.texelsPerMicroTri > 0

@@ -56,7 +56,9 @@ void textureFilter(const RTCFilterFunctionNArguments* args) {
 struct Hit {
   uint32_t triangle = UINT32_MAX;  // UINT32_MAX: no hit
   float t = 0.0f;
-  bool operator!=(const Hit& o) const { return triangle != o.triangle || std::memcmp(&t, &o.t, sizeof t) != 0; }
+  bool operator!=(const Hit& o) const {
+    return triangle != o.triangle || std::memcmp(&t, &o.t, sizeof t) != 0;
+  }
 };
 
 // One ray per pixel of an n × n grid over the cards, straight down the z axis.
@@ -102,7 +104,8 @@ int main() {
   for (const ex_vertex& v : scene.vertices) geometry.uvs.insert(geometry.uvs.end(), {v.u, v.v});
   geometry.indices.assign(scene.indices, scene.indices + 3 * EX_TRIANGLES);
   std::vector<float> triangleUVs;
-  for (uint32_t i : geometry.indices) triangleUVs.insert(triangleUVs.end(), {scene.vertices[i].u, scene.vertices[i].v});
+  for (uint32_t i : geometry.indices)
+    triangleUVs.insert(triangleUVs.end(), {scene.vertices[i].u, scene.vertices[i].v});
 
   somm::BakeOptions options;  // level 6, 4-state
   auto baked = somm::bakeGeometry(geometry, material, options);
@@ -137,10 +140,10 @@ int main() {
   // 1. The texture test on every candidate hit.
   RTCScene plain = rtcNewScene(device);
   RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-  rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, mesh.vertices, 0, mesh.vertexStride,
-                             mesh.vertexCount);
-  rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, mesh.indices, 0, 3 * sizeof(uint32_t),
-                             mesh.triangleCount);
+  rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, mesh.vertices, 0,
+                             mesh.vertexStride, mesh.vertexCount);
+  rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, mesh.indices, 0,
+                             3 * sizeof(uint32_t), mesh.triangleCount);
   rtcSetGeometryUserData(g, const_cast<LeafAlphaTest*>(&textureTest));
   rtcSetGeometryIntersectFilterFunction(g, textureFilter);
   rtcSetGeometryOccludedFilterFunction(g, textureFilter);
@@ -169,23 +172,25 @@ int main() {
   rtcCommitScene(withSdag);
 
   const uint32_t n = 512;
-  const std::vector<Hit> reference = traceGrid(plain, n, [](unsigned, unsigned prim) { return uint32_t(prim); });
+  const std::vector<Hit> reference =
+      traceGrid(plain, n, [](unsigned, unsigned prim) { return uint32_t(prim); });
   const std::vector<Hit> flat =
       traceGrid(withMaps, n, [&](unsigned geom, unsigned prim) { return attached->triangle(geom, prim); });
-  const std::vector<Hit> compressed =
-      traceGrid(withSdag, n, [&](unsigned geom, unsigned prim) { return attachedSdag->triangle(geom, prim); });
+  const std::vector<Hit> compressed = traceGrid(
+      withSdag, n, [&](unsigned geom, unsigned prim) { return attachedSdag->triangle(geom, prim); });
   size_t hits = 0, flatDiffer = 0, sdagDiffer = 0;
   for (size_t i = 0; i < reference.size(); ++i) {
     hits += reference[i].triangle != UINT32_MAX;
     flatDiffer += flat[i] != reference[i];
     sdagDiffer += compressed[i] != reference[i];
   }
-  std::printf("%u rays, %zu hits; triangles: %zu dropped (transparent), %zu opaque, %zu filtered\n", n * n, hits,
-              attached->droppedTriangles(), attached->opaqueTriangles(), attached->filteredTriangles());
-  std::printf("alpha tests: texture only %llu, flat micromaps %llu (%.1f%%), sdag micromaps %llu (%zu bytes)\n",
-              (unsigned long long)textureCalls, (unsigned long long)micromapCalls,
-              textureCalls ? 100.0 * double(micromapCalls) / double(textureCalls) : 0.0,
-              (unsigned long long)sdagCalls, size_t(sdag->byteSize()));
+  std::printf("%u rays, %zu hits; triangles: %zu dropped (transparent), %zu opaque, %zu filtered\n", n * n,
+              hits, attached->droppedTriangles(), attached->opaqueTriangles(), attached->filteredTriangles());
+  std::printf(
+      "alpha tests: texture only %llu, flat micromaps %llu (%.1f%%), sdag micromaps %llu (%zu bytes)\n",
+      (unsigned long long)textureCalls, (unsigned long long)micromapCalls,
+      textureCalls ? 100.0 * double(micromapCalls) / double(textureCalls) : 0.0,
+      (unsigned long long)sdagCalls, size_t(sdag->byteSize()));
   std::printf("hits that differ from the texture test: flat %zu, sdag %zu\n", flatDiffer, sdagDiffer);
 
   rtcReleaseScene(plain);

@@ -121,7 +121,8 @@ void EncodingSizes::add(const EncodingSizes& o) {
   zstd += o.zstd;
   xz += o.xz;
   for (const auto& entry : o.stored) {
-    auto it = std::find_if(stored.begin(), stored.end(), [&](const auto& p) { return p.first == entry.first; });
+    auto it =
+        std::find_if(stored.begin(), stored.end(), [&](const auto& p) { return p.first == entry.first; });
     if (it == stored.end())
       stored.push_back(entry);
     else

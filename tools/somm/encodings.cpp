@@ -92,6 +92,12 @@ Result<EncodedArray> loadEncoding(const SommFile& file, uint32_t array, Encoding
       where + " stores no '" + encodingName(e) + "' encoding (bake with --encoding " + encodingName(e) + ")");
 }
 
+std::string encodingNameList() {
+  std::string s;
+  for (Encoding e : kAllEncodings) (s += s.empty() ? "" : ", ") += encodingName(e);
+  return s;
+}
+
 void EncodingSizes::add(const EncodingSizes& o) {
   flat += o.flat;
   zstd += o.zstd;

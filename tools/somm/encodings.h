@@ -37,6 +37,10 @@ Status addEncodingSections(SommFile& file, std::span<const Encoding> encodings);
 // array.
 Result<EncodedArray> loadEncoding(const SommFile& file, uint32_t array, Encoding e, std::string_view what);
 
+// Every encoding name in kAllEncodings order, comma-separated ("flat, dfs, …, sdag"): the one list every option
+// help and error message shows.
+std::string encodingNameList();
+
 // Exact bytes of each encoding of one or more arrays (serialized EncodedArray size: header, index buffer,
 // descriptors, data, padding) plus the compressed references of the flat array.
 struct EncodingSizes {

@@ -113,7 +113,7 @@ Result<std::vector<bool>> materialsThatCanFailAlphaTest(const Scene& scene, uint
 class TraceWorld {
  public:
   // Flattens `scene` (which must outlive the world) into world space and opens an Embree device.
-  static Result<std::shared_ptr<const TraceWorld>> create(std::shared_ptr<const Scene> scene);
+  static Result<std::shared_ptr<const TraceWorld>> create(const std::shared_ptr<const Scene>& scene);
   ~TraceWorld();
   TraceWorld(const TraceWorld&) = delete;
   TraceWorld& operator=(const TraceWorld&) = delete;

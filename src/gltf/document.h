@@ -14,7 +14,7 @@ namespace somm::gltfdoc {
 
 using nlohmann::json;
 
-struct Document {
+struct Document {    // NOLINT(bugprone-exception-escape): nlohmann::json's defaulted members
   std::string path;  // for messages and relative URIs
   bool binary = false;
   json root;

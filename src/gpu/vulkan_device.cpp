@@ -179,7 +179,7 @@ struct Device::Impl {
     }
 #define SOMM_LOAD_INSTANCE(f)                                           \
   (f) = reinterpret_cast<PFN_##f>(vkGetInstanceProcAddr(instance, #f)); \
-  if (!f) return makeError(ErrorCode::UnsupportedFormat, "Vulkan: the loader has no " #f);
+  if (!(f)) return makeError(ErrorCode::UnsupportedFormat, "Vulkan: the loader has no " #f);
     SOMM_VK_INSTANCE_FNS(SOMM_LOAD_INSTANCE)
 #undef SOMM_LOAD_INSTANCE
 
@@ -243,7 +243,7 @@ struct Device::Impl {
     }
 #define SOMM_LOAD_DEVICE(f)                                                                               \
   (f) = reinterpret_cast<PFN_##f>(vkGetDeviceProcAddr(device, #f));                                       \
-  if (!f) {                                                                                               \
+  if (!(f)) {                                                                                             \
     auto destroy = reinterpret_cast<PFN_vkDestroyDevice>(vkGetDeviceProcAddr(device, "vkDestroyDevice")); \
     if (destroy) destroy(device, nullptr);                                                                \
     device = VK_NULL_HANDLE;                                                                              \

@@ -160,7 +160,7 @@ TraceWorld::~TraceWorld() {
   if (impl_ && impl_->device) rtcReleaseDevice(impl_->device);
 }
 
-Result<std::shared_ptr<const TraceWorld>> TraceWorld::create(std::shared_ptr<const Scene> scene) {
+Result<std::shared_ptr<const TraceWorld>> TraceWorld::create(const std::shared_ptr<const Scene>& scene) {
   const std::string where = scene->sourcePath.empty() ? std::string("scene") : scene->sourcePath;
   std::shared_ptr<TraceWorld> w(new TraceWorld());
   w->scene_ = scene;
@@ -792,7 +792,8 @@ RenderResult Tracer::render(const RenderSettings& settings) const {
         uint8_t* px = result.image.rgba.data() + (size_t(y) * W + x) * 4;
         for (int k = 0; k < 3; ++k) {
           const float v = std::clamp(acc[k] / float(spp), 0.0f, 1.0f);
-          px[k] = uint8_t(v * 255.0f + 0.5f);
+          // v >= 0, so truncating v·255 + ½ rounds; kept as is so that renders stay bit-identical.
+          px[k] = uint8_t(v * 255.0f + 0.5f);  // NOLINT(bugprone-incorrect-roundings)
         }
         px[3] = 255;
       }

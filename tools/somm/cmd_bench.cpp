@@ -2,6 +2,7 @@
 // somm bench SCENE [--omm FILE.somm] [--methods ...] [--repeat K] [--json]: traces the same rays with every
 // any-hit method, interleaved over K repeats, and compares speed, work and images against `texture`.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <sstream>
@@ -172,7 +173,7 @@ int run(const Options& o) {
   out.flush();
   if (textureSpread > 0.10)
     printError("bench", "warning: the texture runs spread by " +
-                            std::to_string(int(textureSpread * 100 + 0.5)) +
+                            std::to_string(std::lround(textureSpread * 100)) +
                             " % (the machine's speed changed; use more --repeat)");
   if (alphaPixels == 0 && !o.allowEmpty) {
     printError("bench", o.trace.scene +

@@ -241,7 +241,7 @@ struct Canvas {
       if (const char* g = glyph(ch))
         for (int r = 0; r < 7; ++r)
           for (int k = 0; k < 5; ++k)
-            if (size_t(r * 5 + k) < std::char_traits<char>::length(g) && g[r * 5 + k] == '#')
+            if (size_t(r) * 5 + size_t(k) < std::char_traits<char>::length(g) && g[r * 5 + k] == '#')
               set(x + k, y + r, c);
       x += 6;
     }

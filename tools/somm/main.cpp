@@ -58,14 +58,16 @@ void Output::putUInt(uint64_t v) {
 
 }  // namespace somm::cli
 
-int main(int argc, char** argv) {
+// Everything after CLI::App's construction runs inside the try; an allocation failure in the constructor itself
+// terminates at startup, before any work.
+int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
   using namespace somm::cli;
   CLI::App app{"somm — Succinct Opacity MicroMaps: bake, compress, inspect and ray trace opacity micromaps",
                "somm"};
-  app.set_version_flag("--version", std::string("somm ") + SOMM_VERSION);
-  app.require_subcommand(1);
-  for (const auto& e : registry()) e.setup(app);
   try {
+    app.set_version_flag("--version", std::string("somm ") + SOMM_VERSION);
+    app.require_subcommand(1);
+    for (const auto& e : registry()) e.setup(app);
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);

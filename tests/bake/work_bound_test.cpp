@@ -62,7 +62,7 @@ TEST(WorkBound, ClampedHugeTrianglesStayWithinTheBudget) {
   const TriangleBake b =
       bakeTriangle(mask, {-1000.f, -800.f}, {1000.f, -790.f}, {3.f, 1000.f}, 6, Format::FourState);
   // kWorkBase + kWorkPerEdgeLevel · (W + H) · (level + 1) + 4^level / 4 spent at most, plus one per leaf sample set.
-  const uint64_t budget = (uint64_t(1) << 14) + 64 * (64 + 64) * 7 + microTriangleCount(6) / 4;
+  const uint64_t budget = (uint64_t(1) << 14) + uint64_t(64) * (64 + 64) * 7 + microTriangleCount(6) / 4;
   EXPECT_LE(b.workUnits, budget + microTriangleCount(6) + 1);
   EXPECT_GT(b.workUnits, 0u);
 }

@@ -265,6 +265,9 @@ Status validateTexture(const TextureView& texture);
 struct TriangleBake {
   Micromap map;  // level/format as requested; uniform maps are left to OmmArrayBuilder to specialise
   uint64_t unknownCount = 0;  // micro-triangles left unknown by the conservative test
+  // Work done (units of docs/baking.md "Work bound": nodes, rows and cells visited, leaves sampled); 0 when nothing
+  // was classified. For tests of the work bound.
+  uint64_t workUnits = 0;
   bool nonFiniteUv = false;
 };
 

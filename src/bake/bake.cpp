@@ -141,7 +141,29 @@ struct TriangleClassifier {
   uint8_t* bytes = nullptr;
   uint64_t unknown = 0;
   mutable uint64_t budget = ~uint64_t(0);  // work units left (see kWorkBase)
-  void spend(uint64_t units) const noexcept { budget = units < budget ? budget - units : 0; }
+  mutable uint64_t work = 0;               // work units done: those spent plus one per leaf sampled
+  // Side of a square (cell units) holding a whole wrap period in both axes; infinity when a wrap clamps.
+  double periodSide = std::numeric_limits<double>::infinity();
+  void spend(uint64_t units) const noexcept {
+    budget = units < budget ? budget - units : 0;
+    work += units;
+  }
+
+  // True when the triangle (cell space) surely contains an axis-aligned square of side periodSide: its incircle
+  // (radius 2·area / perimeter) holds a square of side r·√2 (with a relative slack of 1e-6 for rounding). Such a
+  // square holds a whole period of cells and a point on every texel, so its region reads every texel.
+  bool holdsPeriod(const double X[3], const double Y[3], double scale = 1.0) const noexcept {
+    // Cheap first: the bounding box must span the period (this also rules out clamping wraps: infinity).
+    if (!((max3(X) - min3(X)) * scale >= periodSide && (max3(Y) - min3(Y)) * scale >= periodSide))
+      return false;
+    const double ax = X[1] - X[0], ay = Y[1] - Y[0], bx = X[2] - X[0], by = Y[2] - Y[0];
+    const double area2 = std::fabs(ax * by - ay * bx);
+    const double cx = X[2] - X[1], cy = Y[2] - Y[1];
+    const double per =
+        std::sqrt(ax * ax + ay * ay) + std::sqrt(bx * bx + by * by) + std::sqrt(cx * cx + cy * cy);
+    if (!(per > 0)) return false;
+    return area2 / per * scale * 1.4142135 >= periodSide * (1 + 1e-6) + 1e-6;
+  }
 
   unsigned rect(int64_t i0, int64_t i1, int64_t j0, int64_t j1) const noexcept {
     const AlphaMask::Count c = mask.count(i0, i1 + ext, j0, j1 + ext);
@@ -247,6 +269,8 @@ struct TriangleClassifier {
     const int64_t j0 = cellFloor(min3(Y) - m), j1 = cellFloor(max3(Y) + m);
     const unsigned box = rect(i0, i1, j0, j1);
     if (box != kMixed) return box;
+    // A region holding a whole period reads every texel, which pass and fail (box is mixed): O(1) however large.
+    if (holdsPeriod(X, Y)) return kMixed;
     if (ext && i1 - i0 < cellLimit && j1 - j0 < cellLimit && (i1 - i0 + 1) * (j1 - j0 + 1) <= cellLimit)
       return bilinearCells(X, Y, j0, j1);
     if (j0 == j1) return box;
@@ -293,10 +317,14 @@ struct TriangleClassifier {
         }
       }
       spend(uint64_t(b - a + 1));
+      // Cell i's right corners are cell i + 1's left corners: each texel column is read once per row run.
+      const uint32_t xa0 = wrapFast(a, tw, smp.wrapS);
+      float left0 = mask.texel(xa0, ya), left1 = mask.texel(xa0, yb);
       for (int64_t i = a; i <= b; ++i) {
-        const uint32_t xa = wrapFast(i, tw, smp.wrapS), xb = wrapFast(i + 1, tw, smp.wrapS);
-        const float c00 = mask.texel(xa, ya), c10 = mask.texel(xb, ya), c01 = mask.texel(xa, yb),
-                    c11 = mask.texel(xb, yb);
+        const uint32_t xb = wrapFast(i + 1, tw, smp.wrapS);
+        const float c00 = left0, c10 = mask.texel(xb, ya), c01 = left1, c11 = mask.texel(xb, yb);
+        left0 = c10;
+        left1 = c11;
         const int passes = alphaTestPasses(c00, cutoff) + alphaTestPasses(c10, cutoff) +
                            alphaTestPasses(c01, cutoff) + alphaTestPasses(c11, cutoff);
         if (passes == 4 || passes == 0) {
@@ -408,11 +436,26 @@ struct TriangleClassifier {
   // The children of a node at depth level − 1 (leaves). Witnesses first: the 4 majority samples are points of the
   // leaf's region; when they disagree the region is mixed (the region test is conservative, so it would say so
   // too) and the leaf is unknown without a region test. Output identical to testing every leaf's region.
+  // The leaves' vertices (the parent's 3 vertices and 3 edge midpoints) are witnesses too, sampled once each
+  // when first needed: vertex k of child c is point kLeafVertex[c][k] (a, b, c, ab, ac, bc).
+  static constexpr uint8_t kLeafVertex[4][3] = {{0, 3, 4}, {4, 5, 3}, {3, 1, 5}, {5, 4, 2}};
+  static constexpr uint8_t kChildOf[6] = {0, 2, 3, 0, 0, 1}, kSlotOf[6] = {0, 1, 2, 1, 2, 1};
   void leaves(const double cX[4][3], const double cY[4][3], uint32_t prefix) noexcept {
+    unsigned sampled = 0, passing = 0;  // bit p: point p sampled / passes
+    work += 4;
     for (uint32_t c = 0; c < 4; ++c) {
       const uint32_t index = prefix * 4 + c;
       const int pass = centroidPasses(cX[c], cY[c]);
-      if (pass == 0 || pass == 4) {
+      bool agree = pass == 0 || pass == 4;
+      for (int k = 0; k < 3 && agree; ++k) {
+        const unsigned p = kLeafVertex[c][k], bit = 1u << p;
+        if (!(sampled & bit)) {
+          sampled |= bit;
+          if (passesAt(cX[kChildOf[p]][kSlotOf[p]], cY[kChildOf[p]][kSlotOf[p]])) passing |= bit;
+        }
+        agree = ((passing & bit) != 0) == (pass == 4);
+      }
+      if (agree) {
         const unsigned r = region(cX[c], cY[c], kLeafCells);
         if (r == kPass || r == kFail) {
           fill(index, 1, r == kPass ? State::Opaque : State::Transparent);
@@ -447,8 +490,17 @@ struct TriangleClassifier {
     const double cX[4][3] = {{ax, abx, acx}, {acx, bcx, abx}, {abx, bx, bcx}, {bcx, acx, cx}};
     const double cY[4][3] = {{ay, aby, acy}, {acy, bcy, aby}, {aby, by, bcy}, {bcy, acy, cy}};
     if (depth + 1 == level) return leaves(cX, cY, prefix);
-    for (uint32_t c = 0; c < 4; ++c)
-      node(cX[c], cY[c], depth + 1, prefix * 4 + c, region(cX[c], cY[c], kNodeCells));
+    // Witnesses as in leaves(): a child whose vertices (the points a, b, c, ab, ac, bc of this node) and centroid
+    // see both classes has a mixed region, which region() would report too; it is subdivided without the test.
+    bool v[6];
+    for (int p = 0; p < 6; ++p) v[p] = passesAt(cX[kChildOf[p]][kSlotOf[p]], cY[kChildOf[p]][kSlotOf[p]]);
+    for (uint32_t c = 0; c < 4; ++c) {
+      const bool v0 = v[kLeafVertex[c][0]];
+      const bool mixed =
+          v[kLeafVertex[c][1]] != v0 || v[kLeafVertex[c][2]] != v0 ||
+          passesAt((cX[c][0] + cX[c][1] + cX[c][2]) / 3, (cY[c][0] + cY[c][1] + cY[c][2]) / 3) != v0;
+      node(cX[c], cY[c], depth + 1, prefix * 4 + c, mixed ? kMixed : region(cX[c], cY[c], kNodeCells));
+    }
   }
 };
 
@@ -461,6 +513,7 @@ struct Baked {
   std::optional<State> uniform;
   Micromap map;
   uint64_t unknown = 0;
+  uint64_t work = 0;  // TriangleClassifier::work
   bool nonFinite = false;
 };
 
@@ -501,6 +554,10 @@ TriangleClassifier makeClassifier(const AlphaMask& mask, double margin, uint32_t
   c.format = format;
   c.unknownAs = unknownAs;
   c.budget = workBudget(level, mask.width(), mask.height());
+  const Sampler& smp = mask.sampler();
+  if (smp.wrapS != Wrap::ClampToEdge && smp.wrapT != Wrap::ClampToEdge)
+    c.periodSide = std::max(double(mask.width()) * (smp.wrapS == Wrap::MirroredRepeat ? 2 : 1),
+                            double(mask.height()) * (smp.wrapT == Wrap::MirroredRepeat ? 2 : 1));
   return c;
 }
 
@@ -509,6 +566,7 @@ void classify(const AlphaMask& mask, const Prepared& p, uint32_t level, Format f
               Baked& out) {
   out.uniform.reset();
   out.unknown = 0;
+  out.work = 0;
   out.nonFinite = false;
   TriangleClassifier c = makeClassifier(mask, p.margin, level, format, unknownAs);
   double X[3], Y[3];
@@ -517,6 +575,14 @@ void classify(const AlphaMask& mask, const Prepared& p, uint32_t level, Format f
     Y[k] = p.Y[k] - c.shift;
   }
   const unsigned r = c.region(X, Y, level == 0 ? kLeafCells : kNodeCells);
+  out.work = c.work + 1;
+  // Every micro-triangle (similar to the triangle, scaled by 2^-level) holds a whole period of a mixed texture: all
+  // are unknown, with the triangle's majority state (O(1) instead of 4^level samples).
+  if (r == kMixed && level > 0 && c.holdsPeriod(X, Y, std::ldexp(1.0, -int(level)))) {
+    out.uniform = c.unknownState(X, Y);
+    out.unknown = microTriangleCount(level);
+    return;
+  }
   if (r == kPass || r == kFail) {
     out.uniform = r == kPass ? State::Opaque : State::Transparent;
     return;
@@ -532,6 +598,7 @@ void classify(const AlphaMask& mask, const Prepared& p, uint32_t level, Format f
   c.bytes = out.map.bytes().data();
   c.node(X, Y, 0, 0, r);
   out.unknown = c.unknown;
+  out.work = c.work + 1;
 }
 
 void bakeOne(const AlphaMask& mask, std::array<float, 2> uv0, std::array<float, 2> uv1,
@@ -1153,6 +1220,7 @@ TriangleBake bakeTriangle(const AlphaMask& mask, std::array<float, 2> uv0, std::
   r.map = b.uniform ? Micromap(level, format, *b.uniform) : std::move(b.map);
   r.unknownCount = b.unknown;
   r.nonFiniteUv = b.nonFinite;
+  r.workUnits = b.work;
   return r;
 }
 

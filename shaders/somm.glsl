@@ -44,7 +44,7 @@ const uint SOMM_KIND_DFS = 1u;
 const uint SOMM_KIND_RANK = 2u;
 const uint SOMM_KIND_CSM = 3u;
 const uint SOMM_KIND_SDAG = 4u;
-const uint SOMM_SDAG_DIRECTORY_BYTES = 64u;
+const uint SOMM_SDAG_DIRECTORY_BYTES = 80u;
 const uint SOMM_FORMAT_2_STATE = 1u;
 const uint SOMM_FORMAT_4_STATE = 2u;
 
@@ -276,14 +276,26 @@ uint sommCsmState(uint data, uint offset, uint level, uint format, uint index) {
   return sommValue(p, 0u, format, index & 15u);
 }
 
-// sdag: the data starts with a 64-byte directory (u32 base[13], u8 width[12]); node records hold a u16 mask
-// (1 = child is a node), the uniform children's states, then width-bit references to the node children.
+// sdag: the data starts with an 80-byte directory (u32 base[13], u8 width[12], u8 tier[12], 4 zero bytes); node
+// records hold a u16 mask (1 = child is a node), the uniform children's states, then the references to the node
+// children: width bits each, or — when the child region's tier t > 0 — one flag bit per node child (1 = short)
+// followed by the references, short ones t-1 bits, long ones width bits.
 uint sommSdagRegion(uint format, uint height) { return (format - 1u) * 6u + height - 1u; }
 uint sommSdagChild(uint data, uint format, uint height, uint ref) {
   uint base = sommRead32(data + 4u * sommSdagRegion(format, height));
   return data + base + (height == 1u ? ref * 2u * format : ref);  // leaves: 2b bytes (b = format)
 }
 uint sommSdagWidth(uint data, uint format, uint height) { return sommByte(data + 52u + sommSdagRegion(format, height)); }
+uint sommSdagTier(uint data, uint format, uint height) { return sommByte(data + 64u + sommSdagRegion(format, height)); }
+// Reference number i of the n node children whose references start at bit `pos` of the record at p.
+uint sommSdagRef(uint data, uint p, uint pos, uint n, uint i, uint format, uint height) {
+  uint w = sommSdagWidth(data, format, height);
+  uint t = sommSdagTier(data, format, height);
+  if (t == 0u) return sommBits32(p, pos + w * i, w);
+  uint fl = sommBits(p, pos, n);
+  uint s = uint(bitCount(fl & ((1u << i) - 1u)));
+  return sommBits32(p, pos + n + (t - 1u) * s + w * (i - s), ((fl >> i) & 1u) != 0u ? t - 1u : w);
+}
 
 uint sommSdagState(uint data, uint offset, uint level, uint format, uint index) {
   uint p = data + offset;
@@ -297,8 +309,8 @@ uint sommSdagState(uint data, uint offset, uint level, uint format, uint index) 
     uint m = sommByte(p) & 15u;
     uint below = uint(bitCount(m & ((1u << slot) - 1u)));
     if (((m >> slot) & 1u) == 0u) return sommValue(p, 4u, format, slot - below);
-    uint w = sommSdagWidth(data, format, h);
-    p = sommSdagChild(data, format, h, sommBits32(p, 4u + b * (4u - uint(bitCount(m))) + w * below, w));
+    uint n = uint(bitCount(m));
+    p = sommSdagChild(data, format, h, sommSdagRef(data, p, 4u + b * (4u - n), n, below, format, h));
   }
   while (h >= 2u) {
     shift -= 4u;
@@ -307,8 +319,8 @@ uint sommSdagState(uint data, uint offset, uint level, uint format, uint index) 
     uint below = uint(bitCount(m & ((1u << slot) - 1u)));
     if (((m >> slot) & 1u) == 0u) return sommValue(p, 16u, format, slot - below);
     --h;
-    uint w = sommSdagWidth(data, format, h);
-    p = sommSdagChild(data, format, h, sommBits32(p, 16u + b * (16u - uint(bitCount(m))) + w * below, w));
+    uint n = uint(bitCount(m));
+    p = sommSdagChild(data, format, h, sommSdagRef(data, p, 16u + b * (16u - n), n, below, format, h));
   }
   return sommValue(p, 0u, format, index & 15u);
 }

@@ -172,7 +172,7 @@ Scene makeQuadScene(std::shared_ptr<const AlphaTexture> texture, Sampler sampler
   return s;
 }
 
-Scene makeLeafCardScene(uint32_t cards, uint32_t seed) {
+Scene makeLeafCardScene(uint32_t cards, uint32_t seed, uint32_t atlasSize) {
   Scene s;
   s.sourcePath = "procedural:leaf-cards";
   Material m;
@@ -180,7 +180,7 @@ Scene makeLeafCardScene(uint32_t cards, uint32_t seed) {
   m.alphaMode = AlphaMode::Mask;
   m.alphaCutoff = 0.5f;
   m.doubleSided = true;
-  m.alpha = std::make_shared<const AlphaTexture>(makeLeafAtlasTexture(512));
+  m.alpha = std::make_shared<const AlphaTexture>(makeLeafAtlasTexture(atlasSize));
   m.sampler = Sampler{Wrap::Repeat, Wrap::Repeat, Filter::Linear};
   m.alphaSource = "procedural leaf atlas";
   s.materials.push_back(std::move(m));
@@ -217,7 +217,7 @@ Scene makeLeafCardScene(uint32_t cards, uint32_t seed) {
     }
     const float half = 0.5f * rng.uniform(0.25f, 0.6f);
     const uint32_t q = rng.below(4);
-    const float qu = 0.5f * float(q % 2), qv = 0.5f * float(q / 2);
+    const float qu = 0.5f * float(q % 2), qv = q >= 2 ? 0.5f : 0.0f;
     float uv[4];
     uv[0] = qu + rng.uniform(-0.025f, 0.025f);
     uv[1] = qv + rng.uniform(-0.025f, 0.025f);

@@ -57,12 +57,11 @@ int run(const Options& o) {
   Output out;
   std::string_view line;
   while (in.next(line)) {
-    std::string_view rest = line;
-    const std::string_view a = nextToken(rest);
-    if (a.empty()) continue;  // blank line
-    const std::string_view b = nextToken(rest);
     float u, v;
-    if (b.empty() || !nextToken(rest).empty() || !parseFloat(a, u) || !parseFloat(b, v)) {
+    bool blank;
+    const bool ok = parseUVLine(line, u, v, blank);
+    if (blank) continue;
+    if (!ok) {
       out.flush();
       printError("query", "stdin line " + std::to_string(in.lineNumber()) +
                               ": expected two floats 'u v', got '" + excerpt(line) + "'");

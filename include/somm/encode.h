@@ -346,14 +346,17 @@ inline State csmState(const uint8_t* data, uint32_t offset, uint32_t level, Form
   return getValue(p, 0, f, index & 15u);
 }
 
-// sdag: the data buffer starts with a 64-byte directory: u32 base[13] (byte offset of region k = (format-1)·6 +
-// height-1, base[12] = end of the regions) and u8 width[12] (bits of a reference into region k). A node of
-// height h in region (f, h): u16 mask M (1 = child is a node), the states of the uniform children (M bit 0) in
-// slot order, b bits each, then one width[(f, h-1)]-bit reference per node child in slot order: a leaf index
-// into region (f, 1) (leaves are 2b bytes) or a byte offset into region (f, h-1); byte-aligned records. The
-// mask is the node's rank directory: the child's state or reference sits at popcount(M below the slot) —
-// counts and the bits they count are in the same record.
-inline constexpr uint32_t kSdagDirectoryBytes = 64;
+// sdag: the data buffer starts with an 80-byte directory: u32 base[13] (byte offset of region k = (format-1)·6 +
+// height-1, base[12] = end of the regions), u8 width[12] (bits of a reference into region k), u8 tier[12] (0: every
+// reference into region k is width[k] bits; t > 0: each is short, t-1 bits, or long, width[k] bits) and 4 zero
+// bytes. A node of height h in region (f, h): u16 mask M (1 = child is a node), the states of the uniform children
+// (M bit 0) in slot order, b bits each, then the references of the node children in slot order — when region
+// (f, h-1) is tiered first one flag bit per node child (1 = short), then the references, short ones t-1 bits —: a
+// leaf number in region (f, 1) (leaves are 2b bytes) or a byte offset into region (f, h-1); byte-aligned records.
+// Records are sorted by use, so the most used ones have the small (short) references. The mask and the flags are
+// the node's rank directory: the child's state or reference sits at popcount(M below the slot), and a reference's
+// bit position at popcount(flags below it) — counts and the bits they count are in the same record.
+inline constexpr uint32_t kSdagDirectoryBytes = 80;
 inline constexpr uint32_t kSdagRegions = 12;
 constexpr uint32_t sdagRegion(Format f, uint32_t height) noexcept {
   return (uint32_t(f) - 1u) * 6u + height - 1u;
@@ -361,10 +364,25 @@ constexpr uint32_t sdagRegion(Format f, uint32_t height) noexcept {
 struct SdagDirectory {
   uint32_t base[kSdagRegions + 1] = {};
   uint8_t width[kSdagRegions] = {};
+  uint8_t tier[kSdagRegions] = {};
   friend bool operator==(const SdagDirectory& a, const SdagDirectory& b) noexcept {
     return std::memcmp(&a, &b, sizeof(SdagDirectory)) == 0;
   }
 };
+// Reference number i of the n node children of a record whose references start at bit `pos` (w, tier: of the
+// region referred to).
+inline uint32_t sdagRef(const uint8_t* p, uint32_t pos, uint32_t n, uint32_t i, uint32_t w,
+                        uint32_t tier) noexcept {
+  if (tier == 0) return getBits(p, pos + w * i, w);
+  const uint32_t sw = tier - 1u, fl = getBits(p, pos, n), s = popcount64(fl & ((1u << i) - 1u));
+  return getBits(p, pos + n + sw * s + w * (i - s), ((fl >> i) & 1u) ? sw : w);
+}
+// Bits of the references (with their flags) of such a record.
+inline uint32_t sdagRefBits(const uint8_t* p, uint32_t pos, uint32_t n, uint32_t w, uint32_t tier) noexcept {
+  if (tier == 0) return w * n;
+  const uint32_t s = popcount64(getBits(p, pos, n));
+  return n + (tier - 1u) * s + w * (n - s);
+}
 inline const uint8_t* sdagChild(const uint8_t* data, const SdagDirectory& dir, Format f, uint32_t height,
                                 uint32_t ref) noexcept {
   const uint32_t k = sdagRegion(f, height);
@@ -380,16 +398,16 @@ inline State sdagState(const uint8_t* data, const SdagDirectory& dir, uint32_t o
     shift -= 2;
     const uint32_t slot = index >> shift, m = p[0] & 15u, below = popcount64(m & ((1u << slot) - 1u));
     if (!((m >> slot) & 1u)) return getValue(p, 4, f, slot - below);
-    const uint32_t w = dir.width[sdagRegion(f, h)];
-    p = sdagChild(data, dir, f, h, getBits(p, 4 + b * (4 - popcount64(m)) + w * below, w));
+    const uint32_t k = sdagRegion(f, h), n = popcount64(m);
+    p = sdagChild(data, dir, f, h, sdagRef(p, 4 + b * (4 - n), n, below, dir.width[k], dir.tier[k]));
   }
   while (h >= 2) {
     shift -= 4;
     const uint32_t slot = (index >> shift) & 15u, m = load16(p), below = popcount64(m & ((1u << slot) - 1u));
     if (!((m >> slot) & 1u)) return getValue(p, 16, f, slot - below);
     --h;
-    const uint32_t w = dir.width[sdagRegion(f, h)];
-    p = sdagChild(data, dir, f, h, getBits(p, 16 + b * (16 - popcount64(m)) + w * below, w));
+    const uint32_t k = sdagRegion(f, h), n = popcount64(m);
+    p = sdagChild(data, dir, f, h, sdagRef(p, 16 + b * (16 - n), n, below, dir.width[k], dir.tier[k]));
   }
   return getValue(p, 0, f, index & 15u);
 }

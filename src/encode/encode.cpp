@@ -550,38 +550,84 @@ uint32_t nodeChildren(const Key& k, uint32_t slots) {
   return n;
 }
 
-uint64_t sdagNodeBytes(const Key& k, uint32_t slots, uint32_t b, uint32_t w) {
-  const uint32_t n = nodeChildren(k, slots);
-  return (slots + b * (slots - n) + uint64_t(w) * n + 7) / 8;
-}
-
-// Per region: the byte offset of every record and the reference width into it.
+// Per region: the records in emission order (most used first), each record's reference (leaf number or byte
+// offset), the reference width and tier (kSdagDirectoryBytes, include/somm/encode.h).
 struct SdagLayout {
-  std::array<std::vector<uint32_t>, kSdagRegions> offset;
+  std::array<std::vector<uint32_t>, kSdagRegions> order;
+  std::array<std::vector<uint32_t>, kSdagRegions> ref;
   std::array<uint64_t, kSdagRegions> bytes{};
   std::array<uint8_t, kSdagRegions> width{};
+  std::array<uint8_t, kSdagRegions> tier{};
+
+  bool isShort(uint32_t k, uint32_t id) const {
+    return tier[k] != 0 && ref[k][id] < (uint64_t(1) << (tier[k] - 1u));
+  }
+  uint32_t refBits(uint32_t k, uint32_t id) const { return isShort(k, id) ? tier[k] - 1u : width[k]; }
 };
 
-SdagLayout sdagLayout(const DagTables& tables) {
+// Bytes of a record of `slots` children whose node children are in region `below`.
+uint64_t sdagNodeBytes(const Key& k, uint32_t slots, uint32_t b, const SdagLayout& l, uint32_t below) {
+  const uint32_t n = nodeChildren(k, slots);
+  uint64_t bits = slots + b * (slots - n) + (l.tier[below] != 0 ? n : 0);
+  for (uint32_t s = 0; s < slots; ++s)
+    if (k[s] >= kNodeCode) bits += l.refBits(below, k[s] - kNodeCode);
+  return (bits + 7) / 8;
+}
+
+// The tier (0 or short width + 1) that minimises the bits of `uses` references into records whose references
+// `ref` increase along `order`.
+uint8_t bestTier(const std::vector<uint32_t>& order, const std::vector<uint32_t>& ref,
+                 const std::vector<uint64_t>& uses, uint32_t w) {
+  uint64_t total = 0;
+  for (uint64_t u : uses) total += u;
+  uint64_t best = total * w, shortUses = 0;
+  uint8_t tier = 0;
+  size_t i = 0;
+  for (uint32_t sw = 0; sw < w; ++sw) {
+    while (i < order.size() && ref[order[i]] < (uint64_t(1) << sw)) shortUses += uses[order[i++]];
+    const uint64_t cost = total + shortUses * sw + (total - shortUses) * w;
+    if (cost < best) {
+      best = cost;
+      tier = uint8_t(sw + 1);
+    }
+  }
+  return tier;
+}
+
+SdagLayout sdagLayout(const DagTables& tables, const std::vector<DagRoot>& roots) {
+  // References to each record: from the records one height up and from the 4-way roots.
+  std::array<std::vector<uint64_t>, kSdagRegions> uses;
+  for (uint32_t k = 0; k < kSdagRegions; ++k) uses[k].assign(tables.t[k].records.size(), 0);
+  for (uint32_t k = 0; k < kSdagRegions; ++k)
+    if (k % 6 != 0)
+      for (const Key& r : tables.t[k].records)
+        for (uint32_t c : r)
+          if (c >= kNodeCode) ++uses[k - 1][c - kNodeCode];
+  for (const DagRoot& r : roots)
+    if (r.level >= 3 && r.level % 2 == 1)
+      for (uint32_t c : r.children)
+        if (c >= kNodeCode) ++uses[sdagRegion(r.format, (r.level - 1) / 2)][c - kNodeCode];
   SdagLayout l;
   for (Format f : {Format::TwoState, Format::FourState}) {
     const uint32_t b = bitsPerState(f);
     for (uint32_t h = 1; h <= 6; ++h) {
       const uint32_t k = sdagRegion(f, h);
       const auto& recs = tables.t[k].records;
-      if (h == 1) {
-        l.bytes[k] = recs.size() * 2 * b;
-        l.width[k] = uint8_t(bitsFor(recs.size()));
-        continue;
-      }
-      const uint32_t w = l.width[sdagRegion(f, h - 1)];
+      auto& order = l.order[k];
+      order.resize(recs.size());
+      for (uint32_t i = 0; i < recs.size(); ++i) order[i] = i;
+      std::stable_sort(order.begin(), order.end(),
+                       [&](uint32_t x, uint32_t y) { return uses[k][x] > uses[k][y]; });
+      l.ref[k].assign(recs.size(), 0);
       uint64_t off = 0;
-      for (const Key& r : recs) {
-        l.offset[k].push_back(uint32_t(off));
-        off += sdagNodeBytes(r, 16, b, w);
+      for (uint32_t i = 0; i < recs.size(); ++i) {
+        const uint32_t id = order[i];
+        l.ref[k][id] = h == 1 ? i : uint32_t(off);
+        off += h == 1 ? 2 * b : sdagNodeBytes(recs[id], 16, b, l, k - 1);
       }
       l.bytes[k] = off;
-      l.width[k] = uint8_t(recs.empty() ? 0 : bitsFor(uint64_t(l.offset[k].back()) + 1));
+      l.width[k] = uint8_t(recs.empty() ? 0 : bitsFor(uint64_t(l.ref[k][order.back()]) + 1));
+      l.tier[k] = bestTier(order, l.ref[k], uses[k], l.width[k]);
     }
   }
   return l;
@@ -591,31 +637,34 @@ uint64_t sdagRootBytes(const DagRoot& r, const SdagLayout& l) {
   if (r.level <= 1 || r.level % 2 == 0) return r.level <= 1 ? 1 : 0;  // even roots live in their region
   Key k{};
   for (uint32_t c = 0; c < 4; ++c) k[c] = r.children[c];
-  return sdagNodeBytes(k, 4, bitsPerState(r.format), l.width[sdagRegion(r.format, (r.level - 1) / 2)]);
+  return sdagNodeBytes(k, 4, bitsPerState(r.format), l, sdagRegion(r.format, (r.level - 1) / 2));
 }
 
 uint64_t sdagRecordBytes(uint32_t region, uint32_t id, const DagTables& tables, const SdagLayout& l) {
   const uint32_t h = region % 6 + 1;
   const Format f = region < 6 ? Format::TwoState : Format::FourState;
   if (h == 1) return 2 * bitsPerState(f);
-  return sdagNodeBytes(tables.t[region].records[id], 16, bitsPerState(f), l.width[region - 1]);
+  return sdagNodeBytes(tables.t[region].records[id], 16, bitsPerState(f), l, region - 1);
 }
 
 void putLeaf(BitWriter& out, uint32_t packed, uint32_t b) {
   for (uint32_t s = 0; s < 16; ++s) out.put((packed >> (2 * s)) & 3u, b);
 }
 
-// Mask, uniform states, references (ref(id) of each node child), byte-padded.
-template <class Ref>
-void putSdagNode(BitWriter& out, const Key& k, uint32_t slots, uint32_t b, uint32_t w, Ref&& ref) {
+// Mask, uniform states, the short flags (tiered region below), references, byte-padded.
+void putSdagNode(BitWriter& out, const Key& k, uint32_t slots, uint32_t b, const SdagLayout& l,
+                 uint32_t below) {
   uint32_t m = 0;
   for (uint32_t s = 0; s < slots; ++s)
     if (k[s] >= kNodeCode) m |= 1u << s;
   out.put(m, slots);
   for (uint32_t s = 0; s < slots; ++s)
     if (k[s] < kNodeCode) out.put(k[s], b);
+  if (l.tier[below] != 0)
+    for (uint32_t s = 0; s < slots; ++s)
+      if (k[s] >= kNodeCode) out.put(l.isShort(below, k[s] - kNodeCode) ? 1 : 0, 1);
   for (uint32_t s = 0; s < slots; ++s)
-    if (k[s] >= kNodeCode) out.put(ref(k[s] - kNodeCode), w);
+    if (k[s] >= kNodeCode) out.put(l.ref[below][k[s] - kNodeCode], l.refBits(below, k[s] - kNodeCode));
   out.padToByte();
 }
 
@@ -629,29 +678,30 @@ struct DagMapOut {
 std::vector<uint8_t> emitSdag(const DagTables& tables, const std::vector<DagRoot>& roots,
                               const std::vector<DagMapOut>& kinds, std::vector<uint32_t>& offsets,
                               SdagDirectory& dir) {
-  const SdagLayout l = sdagLayout(tables);
+  const SdagLayout l = sdagLayout(tables, roots);
   BitWriter out;
   uint64_t base = kSdagDirectoryBytes;
   for (uint32_t k = 0; k < kSdagRegions; ++k) {
     dir.base[k] = uint32_t(base);
     dir.width[k] = l.width[k];
+    dir.tier[k] = l.tier[k];
     base += l.bytes[k];
   }
   dir.base[kSdagRegions] = uint32_t(base);
   for (uint32_t k = 0; k <= kSdagRegions; ++k) out.put(dir.base[k], 32);
   for (uint32_t k = 0; k < kSdagRegions; ++k) out.put(dir.width[k], 8);
+  for (uint32_t k = 0; k < kSdagRegions; ++k) out.put(dir.tier[k], 8);
+  out.put(0, 32);
   for (Format f : {Format::TwoState, Format::FourState}) {
     const uint32_t b = bitsPerState(f);
     for (uint32_t h = 1; h <= 6; ++h) {
       const uint32_t k = sdagRegion(f, h);
-      for (const Key& r : tables.t[k].records) {
-        if (h == 1) {
+      for (uint32_t id : l.order[k]) {
+        const Key& r = tables.t[k].records[id];
+        if (h == 1)
           putLeaf(out, r[0], b);
-          continue;
-        }
-        const uint32_t below = sdagRegion(f, h - 1);
-        putSdagNode(out, r, 16, b, l.width[below],
-                    [&](uint32_t id) { return h == 2 ? uint64_t(id) : uint64_t(l.offset[below][id]); });
+        else
+          putSdagNode(out, r, 16, b, l, k - 1);
       }
     }
   }
@@ -669,14 +719,12 @@ std::vector<uint8_t> emitSdag(const DagTables& tables, const std::vector<DagRoot
       out.put(r.byte, 8);
     } else if (r.level % 2 == 0) {
       const uint32_t h = r.level / 2, k = sdagRegion(r.format, h);
-      offsets[m] = dir.base[k] + (h == 1 ? r.id * 2 * b : l.offset[k][r.id]);
+      offsets[m] = dir.base[k] + (h == 1 ? l.ref[k][r.id] * 2 * b : l.ref[k][r.id]);
     } else {
       offsets[m] = uint32_t(out.bits() / 8);
-      const uint32_t h = (r.level - 1) / 2, below = sdagRegion(r.format, h);
       Key k{};
       for (uint32_t c = 0; c < 4; ++c) k[c] = r.children[c];
-      putSdagNode(out, k, 4, b, l.width[below],
-                  [&](uint32_t id) { return h == 1 ? uint64_t(id) : uint64_t(l.offset[below][id]); });
+      putSdagNode(out, k, 4, b, l, sdagRegion(r.format, (r.level - 1) / 2));
     }
   }
   return out.bytes();
@@ -760,12 +808,12 @@ void sdagFill(const uint8_t* data, const SdagDirectory& dir, const uint8_t* p, F
     return;
   }
   const uint32_t mbits = slots, m = slots == 16 ? load16(p) : p[0] & 15u;
-  const uint32_t n = popcount64(m), w = dir.width[sdagRegion(f, h)];
+  const uint32_t k = sdagRegion(f, h), n = popcount64(m), w = dir.width[k], t = dir.tier[k];
   const uint64_t span = uint64_t(1) << (4 * h);
   uint32_t ui = 0, ni = 0;
   for (uint32_t s = 0; s < slots; ++s) {
     if ((m >> s) & 1u) {
-      const uint32_t ref = getBits(p, mbits + b * (slots - n) + w * ni++, w);
+      const uint32_t ref = sdagRef(p, mbits + b * (slots - n), n, ni++, w, t);
       const uint8_t* c = sdagChild(data, dir, f, h, ref);
       if (h == 1)
         sdagFill(data, dir, c, f, 0, 16, start + s * span, out);
@@ -815,10 +863,12 @@ struct SdagChecker {
     if (avail < (slots == 16 ? 2u : 1u)) return false;
     const uint32_t m = slots == 16 ? load16(p) : p[0] & 15u, n = popcount64(m);
     if (h == 0 && m != 0) return false;
-    const uint32_t w = h == 0 ? 0 : dir.width[sdagRegion(f, h)];
-    if ((slots + b * (slots - n) + uint64_t(w) * n + 7) / 8 > avail) return false;
+    const uint32_t w = h == 0 ? 0 : dir.width[sdagRegion(f, h)], t = h == 0 ? 0 : dir.tier[sdagRegion(f, h)];
+    const uint32_t pos = slots + b * (slots - n);
+    if ((pos + (t != 0 ? n : 0) + 7) / 8 > avail) return false;  // the flags
+    if ((pos + uint64_t(sdagRefBits(p, pos, n, w, t)) + 7) / 8 > avail) return false;
     for (uint32_t i = 0; i < n; ++i)
-      if (!child(f, h, getBits(p, slots + b * (slots - n) + w * i, w))) return false;
+      if (!child(f, h, sdagRef(p, pos, n, i, w, t))) return false;
     return true;
   }
   bool node(Format f, uint32_t h, uint64_t off) {
@@ -927,7 +977,8 @@ uint32_t getU32(const uint8_t* p) {
 }
 
 constexpr uint32_t kMagic = 0x434e4553;  // "SENC"
-constexpr uint8_t kVersion = 1;
+constexpr uint8_t kVersion = 1;          // arrays without the sdag directory
+constexpr uint8_t kVersionDirectory = 2;  // arrays with it (the 80-byte directory with reference tiers)
 
 }  // namespace
 
@@ -988,7 +1039,7 @@ SdagBuild buildSdag(const std::vector<Micromap>& maps, std::vector<encode::DagMa
       tables.created = &created[i];
       roots.push_back(encode::internMap(maps[i], tables));
     }
-    const encode::SdagLayout l = encode::sdagLayout(tables);
+    const encode::SdagLayout l = encode::sdagLayout(tables, roots);
     for (size_t i = 0; i < maps.size(); ++i) {
       uint64_t own = encode::sdagRootBytes(roots[i], l);
       for (const auto& [k, id] : created[i]) own += encode::sdagRecordBytes(k, id, tables, l);
@@ -1132,7 +1183,7 @@ std::vector<uint8_t> EncodedArray::serialize() const {
   std::vector<uint8_t> out;
   out.reserve(byteSize());
   putU32(out, kMagic);
-  out.push_back(kVersion);
+  out.push_back(hasDirectory_ ? kVersionDirectory : kVersion);
   out.push_back(uint8_t(encoding_));
   out.push_back(uint8_t(indexType_));
   out.push_back(hasDirectory_ ? 1 : 0);
@@ -1164,9 +1215,16 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
   if (bytes.size() < encode::kArrayHeaderBytes) return bad("encoded array header is truncated");
   const uint8_t* p = bytes.data();
   if (getU32(p) != kMagic) return bad("not an encoded micromap array (bad magic)");
-  if (p[4] != kVersion)
+  if (p[4] != kVersion && p[4] != kVersionDirectory)
     return makeError(ErrorCode::UnsupportedFormat,
                      prefix + "encoded array version " + std::to_string(p[4]) + " is not supported");
+  if (p[4] == kVersion && p[7] == 1)
+    return makeError(ErrorCode::UnsupportedFormat,
+                     prefix +
+                         "encoded array version 1 with the old sdag layout is no longer supported "
+                         "(encode the micromaps again)");
+  if (p[4] == kVersionDirectory && p[7] != 1)
+    return bad("encoded array version 2 without the sdag directory");
   if (p[5] >= kEncodingCount) return bad("unknown encoding id " + std::to_string(p[5]));
   if (p[6] != 2 && p[6] != 4) return bad("index size must be 2 or 4 bytes");
   const Encoding enc = Encoding(p[5]);
@@ -1206,11 +1264,16 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
     if (dataBytes < encode::kSdagDirectoryBytes) return bad("sdag directory is truncated");
     for (uint32_t k = 0; k <= encode::kSdagRegions; ++k) out.dir_.base[k] = getU32(data + 4 * k);
     for (uint32_t k = 0; k < encode::kSdagRegions; ++k) out.dir_.width[k] = data[52 + k];
+    for (uint32_t k = 0; k < encode::kSdagRegions; ++k) out.dir_.tier[k] = data[64 + k];
+    if (getU32(data + 76) != 0) return bad("sdag directory's reserved bytes are not zero");
     if (out.dir_.base[0] != encode::kSdagDirectoryBytes || out.dir_.base[encode::kSdagRegions] > dataBytes)
       return bad("sdag directory regions exceed the data buffer");
     for (uint32_t k = 0; k < encode::kSdagRegions; ++k)
-      if (out.dir_.base[k + 1] < out.dir_.base[k] || out.dir_.width[k] > 32)
-        return bad("sdag directory is inconsistent (regions out of order or reference width above 32)");
+      if (out.dir_.base[k + 1] < out.dir_.base[k] || out.dir_.width[k] > 32 ||
+          out.dir_.tier[k] > out.dir_.width[k])
+        return bad(
+            "sdag directory is inconsistent (regions out of order, reference width above 32 or tier "
+            "above the width)");
   }
   encode::SdagChecker sdag{data, dataBytes, out.dir_};
   encode::CsmChecker csm{data, dataBytes};

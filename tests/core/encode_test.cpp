@@ -515,22 +515,57 @@ TEST(EncodeDag, WorkedExampleLayouts) {
   EXPECT_EQ(csm.maps()[0].offset, 4u);
   EXPECT_EQ(csm.maps()[0].kind, MapKind::Csm);
   const EncodedArray sdag = EncodedArray::build(a, Encoding::Sdag).value();
-  ASSERT_EQ(sdag.dataBytes(), 67u);
+  ASSERT_EQ(sdag.dataBytes(), 83u);
   EXPECT_TRUE(sdag.hasDirectory());
-  EXPECT_EQ(sdag.directory().base[0], 64u);
-  for (uint32_t k = 1; k <= encode::kSdagRegions; ++k) EXPECT_EQ(sdag.directory().base[k], 66u);
+  EXPECT_EQ(sdag.directory().base[0], 80u);
+  for (uint32_t k = 1; k <= encode::kSdagRegions; ++k) EXPECT_EQ(sdag.directory().base[k], 82u);
   for (uint32_t k = 0; k < encode::kSdagRegions; ++k) EXPECT_EQ(sdag.directory().width[k], 0u);
-  EXPECT_EQ(sdag.data()[0], 64u);
-  EXPECT_EQ(sdag.data()[4], 66u);
-  EXPECT_EQ(sdag.data()[64], 0xff);
-  EXPECT_EQ(sdag.data()[65], 0x00);
-  EXPECT_EQ(sdag.data()[66], 0x2c);
-  EXPECT_EQ(sdag.maps()[0].offset, 66u);
+  for (uint32_t k = 0; k < encode::kSdagRegions; ++k) EXPECT_EQ(sdag.directory().tier[k], 0u);
+  EXPECT_EQ(sdag.data()[0], 80u);
+  EXPECT_EQ(sdag.data()[4], 82u);
+  EXPECT_EQ(sdag.data()[80], 0xff);
+  EXPECT_EQ(sdag.data()[81], 0x00);
+  EXPECT_EQ(sdag.data()[82], 0x2c);
+  EXPECT_EQ(sdag.serialize()[4], 2u);  // arrays with the directory are version 2
+  EXPECT_EQ(sdag.maps()[0].offset, 82u);
   EXPECT_EQ(sdag.maps()[0].kind, MapKind::Sdag);
   for (uint32_t i = 0; i < 64; ++i) {
     EXPECT_EQ(csm.state(0, i), m.get(i)) << i;
     EXPECT_EQ(sdag.state(0, i), m.get(i)) << i;
   }
+}
+
+// docs/encodings.md's second worked example: a tiered reference region (short references of 0 bits).
+TEST(EncodeDag, WorkedExampleTieredReferences) {
+  Micromap m(4, Format::TwoState);
+  const uint32_t leaf[4] = {0x00ff, 0x0f0f, 0x3333, 0x5555};
+  for (uint32_t i = 0; i < 256; ++i) {
+    const uint32_t slot = i >> 4, v = leaf[slot < 13 ? 0 : slot - 12];
+    m.set(i, (v >> (i & 15)) & 1u ? State::Opaque : State::Transparent);
+  }
+  const EncodedArray sdag = EncodedArray::build(arrayOf({m}), Encoding::Sdag).value();
+  const std::vector<uint8_t> regions{0xff, 0x00, 0x0f, 0x0f, 0x33, 0x33, 0x55,
+                                     0x55, 0xff, 0xff, 0xff, 0x1f, 0x39};
+  ASSERT_EQ(sdag.dataBytes(), 93u);
+  EXPECT_EQ(std::vector<uint8_t>(sdag.data().begin() + 80, sdag.data().begin() + 93), regions);
+  const encode::SdagDirectory& dir = sdag.directory();
+  EXPECT_EQ(dir.base[0], 80u);
+  EXPECT_EQ(dir.base[1], 88u);
+  for (uint32_t k = 2; k <= encode::kSdagRegions; ++k) EXPECT_EQ(dir.base[k], 93u);
+  EXPECT_EQ(dir.width[0], 2u);
+  EXPECT_EQ(dir.tier[0], 1u);  // short references: 0 bits (the leaf used 13 times)
+  for (uint32_t k = 1; k < encode::kSdagRegions; ++k) EXPECT_EQ(dir.width[k] + dir.tier[k], 0u);
+  EXPECT_EQ(sdag.maps()[0].offset, 88u);
+  EXPECT_EQ(sdag.state(0, 213), State::Transparent);
+  EXPECT_EQ(sdag.state(0, 100), State::Opaque);
+  for (uint32_t i = 0; i < 256; ++i) EXPECT_EQ(sdag.state(0, i), m.get(i)) << i;
+  // A version-1 array with the directory (the old 64-byte layout) is refused clearly.
+  std::vector<uint8_t> bytes = sdag.serialize();
+  bytes[4] = 1;
+  const auto old = EncodedArray::parse(bytes, "old.somm");
+  ASSERT_FALSE(old);
+  EXPECT_EQ(old.error().code, ErrorCode::UnsupportedFormat);
+  EXPECT_NE(old.error().message.find("old sdag layout"), std::string::npos) << old.error().message;
 }
 
 // Identical subtrees of different maps are stored once: a second map that differs from the first in one

@@ -401,14 +401,15 @@ int run(const Options& o) {
           const auto& dir = a->directory();
           std::string line = "sdag L" + std::to_string(level) + ":";
           for (uint32_t h = 1; h <= 6; ++h) {
-            uint64_t b = 0, w = 0;
+            uint64_t b = 0, w = 0, t = 0;
             for (uint32_t f = 1; f <= 2; ++f) {
               const uint32_t k = somm::encode::sdagRegion(somm::Format(f), h);
               b += dir.base[k + 1] - dir.base[k];
               w = std::max<uint64_t>(w, dir.width[k]);
+              t = std::max<uint64_t>(t, dir.tier[k]);
             }
             line += " h" + std::to_string(h) + " " + std::to_string(b) + " B (ref " + std::to_string(w) +
-                    " bits)";
+                    (t != 0 ? " or " + std::to_string(t - 1) : std::string()) + " bits)";
           }
           // Records and references per height (4-state regions), and how the leaf references spread.
           {
@@ -417,17 +418,18 @@ int run(const Options& o) {
             for (uint32_t h = 2; h <= 6; ++h) {
               const uint32_t k = somm::encode::sdagRegion(somm::Format::FourState, h);
               uint64_t recs = 0, refs = 0;
-              const uint32_t w = dir.width[k - 1];
+              const uint32_t w = dir.width[k - 1], t = dir.tier[k - 1];
               for (uint64_t off = dir.base[k]; off < dir.base[k + 1];) {
                 const uint8_t* p = data + off;
                 const uint32_t m = somm::encode::load16(p), n = somm::encode::popcount64(m);
+                const uint32_t pos = 16 + 2 * (16 - n);
                 if (h == 2)
                   for (uint32_t i = 0; i < n; ++i) {
-                    const uint32_t r = somm::encode::getBits(p, 16 + 2 * (16 - n) + w * i, w);
+                    const uint32_t r = somm::encode::sdagRef(p, pos, n, i, w, t);
                     if (r >= leafRefs.size()) leafRefs.resize(r + 1);
                     ++leafRefs[r];
                   }
-                off += (16 + 2 * (16 - n) + w * n + 7) / 8;
+                off += (pos + somm::encode::sdagRefBits(p, pos, n, w, t) + 7) / 8;
                 ++recs;
                 refs += n;
               }

@@ -209,6 +209,43 @@ TEST(BadSommRound2, OutputsAreSafe) {
   }
 }
 
+// `bake IN.gltf -o OUT.gltf` also writes OUT.bin. When OUT.bin was one of IN.gltf's own buffers (IN.gltf written
+// by an earlier bake into OUT.gltf), it was rewritten with the new data appended and the input scene no longer
+// loaded ("File size mismatch"). Now refused, nothing written; a FIFO as OUT.bin is refused too (it was replaced).
+TEST(BadSommRound2, GltfOutputBufferIsNeverAnInput) {
+  if (!testing::hasCommand("bake") || !testing::hasCommand("gen-scene")) GTEST_SKIP();
+  TempDir d;
+  ASSERT_EQ(runGuarded("gen-scene quad --size 16 -o " + quote(d.file("q.glb"))).exitCode, 0);
+  ASSERT_EQ(runGuarded("bake " + quote(d.file("q.glb")) + " -l 2 -o " + quote(d.file("out.gltf"))).exitCode,
+            0);
+  auto r = runGuarded("bake " + quote(d.file("out.gltf")) + " -l 2 -o " + quote(d.file("a.gltf")));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  ASSERT_NE(testing::readFile(d.file("a.gltf")).find("out.bin"), std::string::npos)
+      << "a.gltf should keep its geometry in out.bin";
+  const std::string outGltf = testing::readFile(d.file("out.gltf")),
+                    outBin = testing::readFile(d.file("out.bin"));
+  const auto before = testing::listDir(d.path().string());
+  r = runGuarded("bake " + quote(d.file("a.gltf")) + " -l 3 -o " + quote(d.file("out.gltf")));
+  expectRejected(r, 1, {d.file("out.bin"), "input"}, "bake a.gltf -o out.gltf (out.bin is a.gltf's buffer)");
+  EXPECT_EQ(testing::readFile(d.file("out.bin")), outBin);
+  EXPECT_EQ(testing::readFile(d.file("out.gltf")), outGltf);
+  EXPECT_EQ(testing::listDir(d.path().string()), before);
+  EXPECT_EQ(runGuarded("scene-info " + quote(d.file("a.gltf"))).exitCode, 0);
+  // The same through a symlink named like the output's buffer.
+  ::symlink(d.file("out.bin").c_str(), d.file("b.bin").c_str());
+  r = runGuarded("bake " + quote(d.file("a.gltf")) + " -l 3 -o " + quote(d.file("b.gltf")));
+  expectRejected(r, 1, {"b.bin", "input"}, "bake -o b.gltf, b.bin a symlink to an input buffer");
+  EXPECT_EQ(testing::readFile(d.file("out.bin")), outBin);
+  // A FIFO as the output's buffer.
+  ASSERT_EQ(::mkfifo(d.file("f.bin").c_str(), 0600), 0);
+  r = runGuarded("bake " + quote(d.file("a.gltf")) + " -l 3 -o " + quote(d.file("f.gltf")), "", 20);
+  expectRejected(r, 1, {"f.bin", "FIFO"}, "bake -o f.gltf, f.bin a FIFO");
+  struct stat st;
+  ASSERT_EQ(::stat(d.file("f.bin").c_str(), &st), 0);
+  EXPECT_TRUE(S_ISFIFO(st.st_mode));
+  EXPECT_FALSE(std::filesystem::exists(d.file("f.gltf")));
+}
+
 // Options: threads beyond what oneTBB accepts (65537 crashed inside it), sizes beyond 2^63, NaN, absurd
 // counts that would run out of memory, unknown or malformed --limit.
 TEST(BadSommRound2, OptionRanges) {

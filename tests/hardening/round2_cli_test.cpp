@@ -246,6 +246,29 @@ TEST(BadSommRound2, GltfOutputBufferIsNeverAnInput) {
   EXPECT_FALSE(std::filesystem::exists(d.file("f.gltf")));
 }
 
+// gen-scene -o and export --dir naming something that cannot be the output (a device, a FIFO, a regular file as the
+// directory): exit 2 like bake / render / view, before the work (gen-scene built a million-card scene first, then
+// failed with exit 1).
+TEST(BadSommRound2, NonRegularOutputsAreUsageErrors) {
+  if (!testing::hasCommand("gen-scene") || !testing::hasCommand("export")) GTEST_SKIP();
+  TempDir d;
+  auto r = runGuarded("gen-scene leaf-cards --cards 1000000 -o /dev/null");
+  expectRejected(r, 2, {"/dev/null", "character device"}, "gen-scene -o /dev/null");
+  ASSERT_EQ(::mkfifo(d.file("f.glb").c_str(), 0600), 0);
+  r = runGuarded("gen-scene quad -o " + quote(d.file("f.glb")), "", 20);
+  expectRejected(r, 2, {"f.glb", "FIFO"}, "gen-scene -o a FIFO");
+  ASSERT_EQ(runGuarded("gen-scene quad --size 16 -o " + quote(d.file("q.glb"))).exitCode, 0);
+  ASSERT_EQ(runGuarded("bake " + quote(d.file("q.glb")) + " -l 2 -o " + quote(d.file("q.somm"))).exitCode, 0);
+  const std::string somm = testing::readFile(d.file("q.somm"));
+  const auto before = testing::listDir(d.path().string());
+  for (const std::string& dir : {std::string("/dev/null"), d.file("q.somm"), d.file("f.glb")}) {
+    r = runGuarded("export " + quote(d.file("q.somm")) + " --dir " + quote(dir), "", 20);
+    expectRejected(r, 2, {dir, "not a directory"}, "export --dir " + dir);
+  }
+  EXPECT_EQ(testing::readFile(d.file("q.somm")), somm);
+  EXPECT_EQ(testing::listDir(d.path().string()), before);
+}
+
 // Options: threads beyond what oneTBB accepts (65537 crashed inside it), sizes beyond 2^63, NaN, absurd
 // counts that would run out of memory, unknown or malformed --limit.
 TEST(BadSommRound2, OptionRanges) {

@@ -45,12 +45,11 @@ AlphaTexture makeLeafAtlasTexture(uint32_t size);
 Scene makeQuadScene(std::shared_ptr<const AlphaTexture> texture, Sampler sampler, float cutoff,
                     std::array<float, 4> uvRect = {0, 0, 1, 1});
 
-// A layered leaf-card scene: `cards` overlapping alpha-tested quads (2 triangles each) with random position
-// in
-// [-1, 1]³, orientation and size (0.25–0.6), all in one geometry "cards" (triangles 2c and 2c+1 are card c)
-// with one MASK material "leaf" (cutoff 0.5, linear, repeat) using a 512² leaf atlas; each card maps a
-// randomly jittered quadrant of the atlas (so cards have distinct UVs). One identity instance and a camera at
-// (0, 0, 3.5) looking at the origin. Deterministic from the seed.
-Scene makeLeafCardScene(uint32_t cards, uint32_t seed);
+// A layered leaf-card scene: `cards` overlapping alpha-tested quads (2 triangles each) with random position in
+// [-1, 1]³, orientation and size (0.25–0.6), all in one geometry "cards" (triangles 2c and 2c+1 are card c) with one
+// MASK material "leaf" (cutoff 0.5, linear, repeat) using an atlasSize² leaf atlas (makeLeafAtlasTexture); each card
+// maps a randomly jittered quadrant of the atlas (so cards have distinct UVs). One identity instance and a camera at
+// (0, 0, 3.5) looking at the origin. Deterministic from the seed and the atlas size.
+Scene makeLeafCardScene(uint32_t cards, uint32_t seed, uint32_t atlasSize = 512);
 
 }  // namespace somm

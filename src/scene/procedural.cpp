@@ -172,7 +172,7 @@ Scene makeQuadScene(std::shared_ptr<const AlphaTexture> texture, Sampler sampler
   return s;
 }
 
-Scene makeLeafCardScene(uint32_t cards, uint32_t seed) {
+Scene makeLeafCardScene(uint32_t cards, uint32_t seed, uint32_t atlasSize) {
   Scene s;
   s.sourcePath = "procedural:leaf-cards";
   Material m;
@@ -180,7 +180,7 @@ Scene makeLeafCardScene(uint32_t cards, uint32_t seed) {
   m.alphaMode = AlphaMode::Mask;
   m.alphaCutoff = 0.5f;
   m.doubleSided = true;
-  m.alpha = std::make_shared<const AlphaTexture>(makeLeafAtlasTexture(512));
+  m.alpha = std::make_shared<const AlphaTexture>(makeLeafAtlasTexture(atlasSize));
   m.sampler = Sampler{Wrap::Repeat, Wrap::Repeat, Filter::Linear};
   m.alphaSource = "procedural leaf atlas";
   s.materials.push_back(std::move(m));

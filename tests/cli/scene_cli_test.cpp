@@ -70,6 +70,13 @@ TEST(CliGenScene, LeafCardsAndQuad) {
   EXPECT_EQ(j["triangles"], 50);
   EXPECT_EQ(j["alpha_tested_triangles"], 50);
   EXPECT_FALSE(j["camera"].is_null());
+  EXPECT_EQ(j["materials"][0]["alpha_texture"]["width"], 512);  // the default leaf atlas
+  // --size sets the leaf atlas.
+  ASSERT_EQ(
+      runSomm(dir, "gen-scene leaf-cards --cards 5 --size 128 -o " + shellQuote(dir / "s.glb")).exitCode, 0);
+  const RunResult si = runSomm(dir, "scene-info " + shellQuote(dir / "s.glb") + " --json");
+  ASSERT_EQ(si.exitCode, 0) << si.err;
+  EXPECT_EQ(nlohmann::json::parse(si.out)["materials"][0]["alpha_texture"]["height"], 128);
   // Same seed → same bytes.
   ASSERT_EQ(runSomm(dir, "gen-scene leaf-cards --cards 25 --seed 3 -o " + shellQuote(dir / "d.glb")).exitCode,
             0);

@@ -56,6 +56,16 @@ if(pos LESS 0)
 endif()
 run(${WORK_DIR}/find/bake_from_memory_cpp17 ${WORK_DIR}/cpp17)
 message(STATUS "bake_from_memory_cpp17 (C++17, find_package):\n${run_output}")
+# The Embree any-hit example (somm::trace): traced hits identical to the texture test, fewer alpha tests.
+if(NOT EXISTS ${WORK_DIR}/find/embree_any_hit)
+  message(FATAL_ERROR "find_package(somm COMPONENTS trace) did not give the embree_any_hit example")
+endif()
+run(${WORK_DIR}/find/embree_any_hit)
+message(STATUS "embree_any_hit (C++17, find_package):\n${run_output}")
+string(FIND "${run_output}" "differ from the texture test: flat 0, sdag 0" pos)
+if(pos LESS 0)
+  message(FATAL_ERROR "embree_any_hit: traced hits differ from the texture test")
+endif()
 
 # The same input through the CLI.
 run(${SOMM_CLI} bake ${WORK_DIR}/c/scene.obj -o ${WORK_DIR}/cli.somm)
@@ -76,11 +86,22 @@ run(${WORK_DIR}/pc/bake_from_memory ${WORK_DIR}/pc-out)
 expect_same_buffers(${WORK_DIR}/pc-out ${WORK_DIR}/cli "C11 consumer (pkg-config)")
 
 # ---- 3. add_subdirectory, shared libraries, empty build type, the parent's own flags ----
-run(${CMAKE_COMMAND} -S ${SOMM_SOURCE_DIR}/tests/consumer/parent -B ${WORK_DIR}/parent -G ${GENERATOR}
+# First with somm's defaults (configure only: somm::somm alone, no Embree, no I/O packages looked for), then with
+# somm::trace as well, built and run.
+run(${CMAKE_COMMAND} -S ${SOMM_SOURCE_DIR}/tests/consumer/parent -B ${WORK_DIR}/parent-default -G ${GENERATOR}
     -DCMAKE_C_COMPILER=${C_COMPILER} -DCMAKE_CXX_COMPILER=${CXX_COMPILER} ${launcher}
     -DSOMM_SOURCE_DIR=${SOMM_SOURCE_DIR} -DBUILD_SHARED_LIBS=ON
     "-DCMAKE_C_FLAGS=-Wall -O1" "-DCMAKE_CXX_FLAGS=-Wall -O1" "-DPARENT_EXPECTED_FLAGS=-Wall -O1")
+run(${CMAKE_COMMAND} -S ${SOMM_SOURCE_DIR}/tests/consumer/parent -B ${WORK_DIR}/parent -G ${GENERATOR}
+    -DCMAKE_C_COMPILER=${C_COMPILER} -DCMAKE_CXX_COMPILER=${CXX_COMPILER} ${launcher}
+    -DSOMM_SOURCE_DIR=${SOMM_SOURCE_DIR} -DBUILD_SHARED_LIBS=ON -DSOMM_BUILD_TRACE=ON
+    "-DCMAKE_C_FLAGS=-Wall -O1" "-DCMAKE_CXX_FLAGS=-Wall -O1" "-DPARENT_EXPECTED_FLAGS=-Wall -O1")
 run(${CMAKE_COMMAND} --build ${WORK_DIR}/parent)
+run(${WORK_DIR}/parent/examples/embree_any_hit)
+string(FIND "${run_output}" "differ from the texture test: flat 0, sdag 0" pos)
+if(pos LESS 0)
+  message(FATAL_ERROR "embree_any_hit (add_subdirectory): traced hits differ from the texture test")
+endif()
 if(NOT EXISTS ${WORK_DIR}/parent/somm/src/libsomm_core.so.0)
   message(FATAL_ERROR "BUILD_SHARED_LIBS=ON did not build libsomm_core.so")
 endif()

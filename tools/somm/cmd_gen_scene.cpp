@@ -18,7 +18,7 @@ struct Options {
   uint32_t cards = 1000;
   uint32_t seed = 1;
   std::string texture = "leaf";
-  uint32_t size = 256;
+  uint32_t size = 0;  // 0: the kind's default (quad 256, leaf-cards 512)
   std::string filter = "linear";
   std::string wrap = "repeat";
   float cutoff = 0.5f;
@@ -35,21 +35,22 @@ int run(const Options& o) {
   }
   somm::Scene scene;
   if (o.kind == "leaf-cards") {
-    scene = somm::makeLeafCardScene(o.cards, o.seed);
+    scene = somm::makeLeafCardScene(o.cards, o.seed, o.size ? o.size : 512);
   } else {
+    const uint32_t size = o.size ? o.size : 256;
     somm::AlphaTexture t;
     if (o.texture == "disc")
-      t = somm::makeDiscTexture(o.size);
+      t = somm::makeDiscTexture(size);
     else if (o.texture == "noise")
-      t = somm::makeNoiseTexture(o.size, o.seed, std::max<uint32_t>(1, o.size / 16));
+      t = somm::makeNoiseTexture(size, o.seed, std::max<uint32_t>(1, size / 16));
     else if (o.texture == "checker")
-      t = somm::makeCheckerTexture(o.size, std::max<uint32_t>(1, o.size / 8));
+      t = somm::makeCheckerTexture(size, std::max<uint32_t>(1, size / 8));
     else if (o.texture == "specks")
-      t = somm::makeSpeckTexture(o.size, std::max<uint32_t>(1, o.size * o.size / 256), o.seed);
+      t = somm::makeSpeckTexture(size, std::max<uint32_t>(1, size * size / 256), o.seed);
     else if (o.texture == "stripes")
-      t = somm::makeStripeTexture(o.size, std::max<uint32_t>(2, o.size / 8));
+      t = somm::makeStripeTexture(size, std::max<uint32_t>(2, size / 8));
     else
-      t = somm::makeLeafTexture(o.size);
+      t = somm::makeLeafTexture(size);
     somm::Sampler smp;
     smp.filter = o.filter == "nearest" ? somm::Filter::Nearest : somm::Filter::Linear;
     smp.wrapS = smp.wrapT = o.wrap == "clamp"    ? somm::Wrap::ClampToEdge
@@ -81,7 +82,9 @@ void setup(CLI::App& root) {
   cmd->add_option("--seed", opts->seed, "random seed");
   cmd->add_option("--texture", opts->texture, "quad: disc | noise | checker | specks | stripes | leaf")
       ->check(CLI::IsMember({"disc", "noise", "checker", "specks", "stripes", "leaf"}));
-  cmd->add_option("--size", opts->size, "quad: texture size in texels")->check(CLI::Range(1u, 16384u));
+  cmd->add_option("--size", opts->size,
+                  "texture size in texels (quad: default 256; leaf-cards: the leaf atlas, default 512)")
+      ->check(CLI::Range(1u, 16384u));
   cmd->add_option("--filter", opts->filter, "quad: nearest | linear")
       ->check(CLI::IsMember({"nearest", "linear"}));
   cmd->add_option("--wrap", opts->wrap, "quad: repeat | clamp | mirror")

@@ -120,12 +120,12 @@ void EncodingSizes::add(const EncodingSizes& o) {
   flat += o.flat;
   zstd += o.zstd;
   xz += o.xz;
-  for (const auto& [e, b] : o.stored) {
-    auto it = std::find_if(stored.begin(), stored.end(), [&](const auto& p) { return p.first == e; });
+  for (const auto& entry : o.stored) {
+    auto it = std::find_if(stored.begin(), stored.end(), [&](const auto& p) { return p.first == entry.first; });
     if (it == stored.end())
-      stored.emplace_back(e, b);
+      stored.push_back(entry);
     else
-      it->second += b;
+      it->second += entry.second;
   }
   std::sort(stored.begin(), stored.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
 }

@@ -246,6 +246,32 @@ TEST(BadSommRound2, GltfOutputBufferIsNeverAnInput) {
   EXPECT_FALSE(std::filesystem::exists(d.file("f.gltf")));
 }
 
+// A GLB whose declared total length is below its 20-byte headers: the micromap reader computed `total - 20` in
+// unsigned arithmetic, so a huge JSON chunk length passed the check and the JSON parser read past the file
+// (ASan: heap-buffer-overflow; found by fuzz_gltf). Every command that opens micromaps refuses it cleanly.
+TEST(BadSommRound2, GlbLengthBelowHeader) {
+  TempDir d;
+  for (uint32_t total : {0u, 12u, 19u}) {
+    std::string glb("glTF", 4);
+    auto u32 = [&](uint32_t v) {
+      for (int i = 0; i < 4; ++i) glb += char((v >> (8 * i)) & 0xffu);
+    };
+    u32(2);
+    u32(total);
+    u32(0x9b073c00u);  // JSON chunk length: far past the file
+    glb += "JSON";
+    glb += R"({"asset":{"version":"2.0"},"extensionsUsed":["EXT_mesh_opacity_micromap"]})";
+    testing::writeFile(d.file("x.glb"), glb);
+    for (const char* cmd : {"info", "export"}) {
+      const std::string extra = std::string(cmd) == "export" ? " --dir " + quote(d.file("out")) : "";
+      const auto r = runGuarded(std::string(cmd) + " " + quote(d.file("x.glb")) + extra);
+      expectRejected(r, 1, {d.file("x.glb"), "less than its headers"},
+                     std::string(cmd) + " on a GLB of declared length " + std::to_string(total));
+    }
+    EXPECT_FALSE(std::filesystem::exists(d.file("out")));
+  }
+}
+
 // gen-scene -o and export --dir naming something that cannot be the output (a device, a FIFO, a regular file as the
 // directory): exit 2 like bake / render / view, before the work (gen-scene built a million-card scene first, then
 // failed with exit 1).

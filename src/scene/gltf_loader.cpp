@@ -87,6 +87,7 @@ struct ExternalFiles {
   std::filesystem::path dir;  // the glTF's directory
   std::string error;          // the first failed read: "<path>: <problem>"
   ErrorCode errorCode = ErrorCode::IoError;
+  std::vector<std::string> read;  // the files read (Scene::inputFiles)
 };
 
 // No shell-style expansion of URIs (tinygltf's default uses wordexp): resolve against the glTF's directory.
@@ -127,6 +128,7 @@ bool readExternal(std::vector<unsigned char>* out, std::string* err, const std::
     return false;
   }
   *out = std::move(bytes.value());
+  files.read.push_back(path);
   return true;
 }
 
@@ -387,6 +389,7 @@ Result<std::shared_ptr<const RawImage>> GltfLoader::image(int index, const std::
     if (im.image.empty()) {
       // tinygltf only warns when an external image is missing: try ourselves, for the reason of the failure.
       raw = readImageFile((base / im.uri).string(), opts_.limits, &decoded_);
+      scene_.inputFiles.push_back((base / im.uri).string());
     } else {
       raw = decodeImage(im.image.data(), im.image.size(), opts_.limits, &decoded_);
     }
@@ -823,6 +826,8 @@ Result<Scene> GltfLoader::run(bool binary) {
     if (!supported) return fail(ErrorCode::UnsupportedFormat, "requires the unsupported extension " + ext);
   }
   scene_.sourcePath = path_;
+  scene_.inputFiles.push_back(path_);
+  scene_.inputFiles.insert(scene_.inputFiles.end(), files.read.begin(), files.read.end());
   Status st = loadMaterials();
   if (!st.ok()) return st.error();
   st = loadGeometries();

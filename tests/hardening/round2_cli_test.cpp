@@ -246,6 +246,42 @@ TEST(BadSommRound2, GltfOutputBufferIsNeverAnInput) {
   EXPECT_FALSE(std::filesystem::exists(d.file("f.gltf")));
 }
 
+// An output naming one of the files the scene was read from: the scene's texture, its glTF buffer, an OBJ's
+// material library or texture. `render scene.gltf -o leaf.png` overwrote the scene's own texture and exited 0.
+// Refused with exit 2 before any work; the file is untouched.
+TEST(BadSommRound2, OutputsNeverReplaceSceneFiles) {
+  if (!testing::hasCommand("bake") || !testing::hasCommand("view")) GTEST_SKIP();
+  TempDir d;
+  const std::string src = std::string(SOMM_DATA_DIR) + "/oak-tree/";
+  for (const char* f : {"oaktree.gltf", "oaktree.bin", "oakleaf_light.png", "oakbark.jpg"})
+    testing::writeFile(d.file(f), testing::readFile(src + f));
+  testing::writeFile(d.file("q.obj"),
+                     "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nusemtl "
+                     "leaf\nf 1/1 2/2 3/3\n");
+  testing::writeFile(d.file("m.mtl"), "newmtl leaf\nmap_d oakleaf_light.png\n");
+  const std::string gltf = d.file("oaktree.gltf"), obj = d.file("q.obj");
+  ASSERT_EQ(runGuarded("bake " + quote(gltf) + " -l 2 -o " + quote(d.file("o.somm"))).exitCode, 0);
+  std::vector<std::pair<std::string, std::string>> cases = {
+      {"bake " + quote(gltf) + " -l 2 -o ", d.file("oakleaf_light.png")},
+      {"bake " + quote(gltf) + " -l 2 -o ", d.file("oaktree.bin")},
+      {"bake " + quote(obj) + " -l 2 -o ", d.file("m.mtl")},
+      {"view " + quote(d.file("o.somm")) + " -g 0 -o ", d.file("oakleaf_light.png")},
+      {"view " + quote(d.file("o.somm")) + " -g 0 -o ", d.file("oaktree.bin")},
+  };
+  if (testing::hasCommand("render")) {
+    cases.push_back({"render " + quote(gltf) + " --width 8 --height 8 -o ", d.file("oakleaf_light.png")});
+    cases.push_back({"render " + quote(gltf) + " --width 8 --height 8 -o ", d.file("oakbark.jpg")});
+    cases.push_back({"render " + quote(obj) + " --width 8 --height 8 -o ", d.file("oakleaf_light.png")});
+  }
+  for (const auto& [cmd, target] : cases) {
+    const std::string before = testing::readFile(target);
+    const auto r = runGuarded(cmd + quote(target));
+    expectRejected(r, 2, {target, "is the input"}, cmd + target);
+    EXPECT_EQ(testing::readFile(target), before) << target;
+  }
+  EXPECT_EQ(runGuarded("scene-info " + quote(gltf)).exitCode, 0);
+}
+
 // A GLB whose declared total length is below its 20-byte headers: the micromap reader computed `total - 20` in
 // unsigned arithmetic, so a huge JSON chunk length passed the check and the JSON parser read past the file
 // (ASan: heap-buffer-overflow; found by fuzz_gltf). Every command that opens micromaps refuses it cleanly.

@@ -17,9 +17,10 @@ PKGS_TEST  := libgtest-dev libgmock-dev
 PKGS_BENCH := libbenchmark-dev
 PKGS_GPU   := libvulkan-dev libvulkan1 glslang-tools mesa-vulkan-drivers  # somm_gpu: build + lavapipe to test
 PKGS_FUZZ  := clang libclang-rt-14-dev                         # make fuzz only (~200 MB)
+PKGS_LINT  := clang-format clang-tidy                          # make format / lint only
 PKGS_DEMO  := $(PKGS_BASE) $(PKGS_LIB) $(PKGS_IO) $(PKGS_TRACE) $(PKGS_CLI)
 PKGS_ALL   := $(PKGS_DEMO) $(PKGS_TEST) $(PKGS_BENCH) $(PKGS_GPU)
-DEB_PKGS   := $(PKGS_ALL) $(PKGS_FUZZ)                         # everything (make deps)
+DEB_PKGS   := $(PKGS_ALL) $(PKGS_FUZZ) $(PKGS_LINT)            # everything (make deps)
 
 # $(call install_pkgs,LIST): apt-get install the missing ones.
 define install_pkgs
@@ -36,7 +37,7 @@ endef
 CONFIGURE_ALL := cmake -S . -B $(BUILD) $(CMAKE_GEN) -DCMAKE_BUILD_TYPE=Release -DSOMM_BUILD_CLI=ON \
                  -DSOMM_BUILD_TRACE=ON -DSOMM_BUILD_TESTS=ON -DSOMM_BUILD_BENCH=ON -DSOMM_BUILD_GPU=ON
 
-.PHONY: all deps deps-demo deps-all deps-fuzz configure build test sanitize fuzz fuzz-build bench demo format clean
+.PHONY: all deps deps-demo deps-all deps-fuzz deps-lint configure build test sanitize fuzz fuzz-build bench demo format lint clean
 
 all: build
 
@@ -46,6 +47,8 @@ deps-demo:
 	$(call install_pkgs,$(PKGS_DEMO))
 deps-all:
 	$(call install_pkgs,$(PKGS_ALL))
+deps-lint:
+	$(call install_pkgs,$(PKGS_LINT))
 deps-fuzz:
 	$(call install_pkgs,$(PKGS_BASE) $(PKGS_LIB) $(PKGS_IO) $(PKGS_CLI) $(PKGS_FUZZ))
 
@@ -88,9 +91,21 @@ demo: deps-demo
 	cmake --build $(BUILD) -j $(JOBS) --target somm
 	bash tools/demo.sh $(BUILD)/tools/somm/somm
 
-format:
-	@command -v clang-format >/dev/null || apt-get install -y -qq clang-format
-	find include src tools tests bench fuzz examples -name '*.h' -o -name '*.cpp' -o -name '*.c' | xargs clang-format -i
+# Our C/C++ sources (shaders are not clang-formatted).
+FORMAT_FILES = $(shell git ls-files -- '*.c' '*.cpp' '*.h' ':!:shaders/*')
+# clang-tidy (.clang-tidy: bugprone-*, performance-*) over the library and the CLI, with their headers.
+TIDY_FILES := '$(CURDIR)/(src|tools)/'
+
+format: deps-lint
+	clang-format -i $(FORMAT_FILES)
+
+# CI: fails on any clang-format change or clang-tidy finding (needs the build dir's compile_commands.json).
+lint: deps-lint
+	clang-format --dry-run -Werror $(FORMAT_FILES)
+	@if [ ! -f $(BUILD)/compile_commands.json ]; then $(MAKE) configure; fi
+	run-clang-tidy -p $(BUILD) -quiet -j $(JOBS) $(TIDY_FILES) > $(BUILD)/clang-tidy.log 2>&1 || \
+	  { grep -E 'error:|warning:' $(BUILD)/clang-tidy.log | sed 's/\x1b\[[0-9;]*m//g' | sort -u; exit 1; }
+	@echo "clang-format and clang-tidy: clean"
 
 clean:
 	rm -rf $(BUILD) $(ASAN_BUILD) $(FUZZ_BUILD)

@@ -4,7 +4,6 @@
 // array first and reports its time and size as ratios to flat measured in the same run (counters x_flat and
 // bytes_x_flat).
 #include <benchmark/benchmark.h>
-#include <lzma.h>
 #include <time.h>
 
 #include <algorithm>
@@ -16,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "reference_compressors.h"
 #include "somm/bake.h"
 #include "somm/encode.h"
 #include "somm/omm_array.h"
@@ -192,19 +192,6 @@ void runLookups(benchmark::State& state, const Scene& s, uint32_t level) {
 // to flat, dfs, csm and xz -9 of the flat array, and ns per random lookup against flat in the same run.
 // Skipped when the assets are absent.
 
-uint64_t xz9(const std::vector<uint8_t>& bytes) {
-  lzma_options_lzma opt;
-  if (lzma_lzma_preset(&opt, 9)) return 0;
-  opt.dict_size = uint32_t(std::clamp<uint64_t>(bytes.size(), LZMA_DICT_SIZE_MIN, opt.dict_size));
-  lzma_filter filters[2] = {{LZMA_FILTER_LZMA2, &opt}, {LZMA_VLI_UNKNOWN, nullptr}};
-  std::vector<uint8_t> out(lzma_stream_buffer_bound(bytes.size()));
-  size_t pos = 0;
-  if (lzma_stream_buffer_encode(filters, LZMA_CHECK_CRC64, nullptr, bytes.data(), bytes.size(), out.data(),
-                                &pos, out.size()) != LZMA_OK)
-    return 0;
-  return pos;
-}
-
 std::string foliageDir() {
   const char* env = std::getenv("SOMM_FOLIAGE_DIR");
   return env ? env : SOMM_FOLIAGE_DIR;
@@ -262,7 +249,7 @@ const RealScene& realScene(int which, uint32_t level) {
     s.flat = std::move(sm.arrays[0]);
     s.dfsBytes = EncodedArray::build(s.flat, Encoding::Dfs).value().byteSize();
     s.csmBytes = EncodedArray::build(s.flat, Encoding::Csm).value().byteSize();
-    s.xzBytes = xz9(EncodedArray::build(s.flat, Encoding::Flat).value().serialize());
+    s.xzBytes = somm::cli::xzBytes(EncodedArray::build(s.flat, Encoding::Flat).value().serialize());
     // Queries on triangles that have a micromap.
     std::vector<uint32_t> withMap;
     for (uint32_t t = 0; t < s.flat.indices.size(); ++t)

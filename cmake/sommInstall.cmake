@@ -15,6 +15,10 @@ if(TARGET somm)
   install(TARGETS somm RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 endif()
 install(FILES ${PROJECT_SOURCE_DIR}/LICENSE ${PROJECT_SOURCE_DIR}/README.md DESTINATION ${CMAKE_INSTALL_DOCDIR})
+# The shader lookups (docs/shaders.md): somm.glsl and somm.hlsl include somm_lookup.inc from their own directory;
+# the example any-hit shaders beside them. Source files, installed whether or not the Vulkan harness is built.
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/shaders/ DESTINATION ${CMAKE_INSTALL_DATADIR}/somm/shaders
+        FILES_MATCHING PATTERN "*.glsl" PATTERN "*.hlsl" PATTERN "*.inc" PATTERN "*.rahit")
 
 set(SOMM_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/somm)
 install(EXPORT sommTargets NAMESPACE somm:: DESTINATION ${SOMM_CMAKE_DIR})

@@ -177,6 +177,19 @@ struct BakeInputs {
   uint32_t materialCount = 0;
   const GeometryInput* geometries = nullptr;
   uint32_t geometryCount = 0;
+
+  // Views of three caller-owned vectors (which must outlive the bake).
+  static BakeInputs of(const std::vector<TextureView>& textures, const std::vector<MaterialInput>& materials,
+                       const std::vector<GeometryInput>& geometries) noexcept {
+    BakeInputs in;
+    in.textures = textures.data();
+    in.textureCount = uint32_t(textures.size());
+    in.materials = materials.data();
+    in.materialCount = uint32_t(materials.size());
+    in.geometries = geometries.data();
+    in.geometryCount = uint32_t(geometries.size());
+    return in;
+  }
 };
 
 // The alpha test of one (texture, channel, scale, sampler, cutoff), prepared for fast conservative queries: a

@@ -1336,14 +1336,7 @@ Result<SceneBake> bakeScene(const Scene& scene, const BakeOptions& o) {
       return makeError(s.error().code, "geometry " + std::to_string(g) + " " + s.error().message.substr(9));
     geometries.push_back(viewOf(sg, sg.material));
   }
-  BakeInputs in;
-  in.textures = textures.data();
-  in.textureCount = uint32_t(textures.size());
-  in.materials = materials.data();
-  in.materialCount = uint32_t(materials.size());
-  in.geometries = geometries.data();
-  in.geometryCount = uint32_t(geometries.size());
-  return bakeScene(in, o);
+  return bakeScene(BakeInputs::of(textures, materials, geometries), o);
 }
 
 Result<BakedGeometry> bakeGeometry(const Geometry& geometry, const Material& material,

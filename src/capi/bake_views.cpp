@@ -325,13 +325,7 @@ Result<SceneBake> bakeFromViews(const somm_bake_input& in, const somm_bake_optio
     gi.material = v.material;
     if (!needUvs) gi.uvs = nullptr, gi.uvStride = 0;
   }
-  BakeInputs inputs;
-  inputs.textures = textures.data();
-  inputs.textureCount = uint32_t(textures.size());
-  inputs.materials = materials.data();
-  inputs.materialCount = uint32_t(materials.size());
-  inputs.geometries = geometries.data();
-  inputs.geometryCount = uint32_t(geometries.size());
+  const BakeInputs inputs = BakeInputs::of(textures, materials, geometries);
 
   BakeOptions bo;
   bo.level = o.level;

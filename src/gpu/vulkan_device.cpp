@@ -177,8 +177,8 @@ struct Device::Impl {
             "lavapipe CPU device)");
       return vkError("vkCreateInstance", r);
     }
-#define SOMM_LOAD_INSTANCE(f)                                         \
-  f = reinterpret_cast<PFN_##f>(vkGetInstanceProcAddr(instance, #f)); \
+#define SOMM_LOAD_INSTANCE(f)                                           \
+  (f) = reinterpret_cast<PFN_##f>(vkGetInstanceProcAddr(instance, #f)); \
   if (!f) return makeError(ErrorCode::UnsupportedFormat, "Vulkan: the loader has no " #f);
     SOMM_VK_INSTANCE_FNS(SOMM_LOAD_INSTANCE)
 #undef SOMM_LOAD_INSTANCE
@@ -242,7 +242,7 @@ struct Device::Impl {
       return vkError("vkCreateDevice on " + name, r);
     }
 #define SOMM_LOAD_DEVICE(f)                                                                               \
-  f = reinterpret_cast<PFN_##f>(vkGetDeviceProcAddr(device, #f));                                         \
+  (f) = reinterpret_cast<PFN_##f>(vkGetDeviceProcAddr(device, #f));                                       \
   if (!f) {                                                                                               \
     auto destroy = reinterpret_cast<PFN_vkDestroyDevice>(vkGetDeviceProcAddr(device, "vkDestroyDevice")); \
     if (destroy) destroy(device, nullptr);                                                                \

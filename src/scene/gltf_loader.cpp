@@ -185,18 +185,6 @@ std::string badUnsigned(const nlohmann::json& j) {
   return {};
 }
 
-void splitLines(const std::string& text, std::vector<std::string>& out) {
-  size_t start = 0;
-  while (start < text.size()) {
-    size_t end = text.find('\n', start);
-    if (end == std::string::npos) end = text.size();
-    std::string line = text.substr(start, end - start);
-    while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
-    if (!line.empty()) out.push_back(std::move(line));
-    start = end + 1;
-  }
-}
-
 // A validated accessor: element i starts at base + i * stride. base == nullptr: all zeros (no bufferView).
 struct AccessorView {
   const uint8_t* base = nullptr;

@@ -290,7 +290,7 @@ ColorImage toColorImage(const RawImage& img, bool flipRows) {
   return c;
 }
 
-std::string oneLine(std::string s) {
+std::string oneLine(const std::string& s) {
   std::string out;
   out.reserve(s.size());
   bool pendingSep = false;

@@ -53,6 +53,6 @@ AlphaTexture toAlphaTexture(const RawImage& img, AlphaChannel channel, float fac
 ColorImage toColorImage(const RawImage& img, bool flipRows);
 
 // Replaces line breaks by "; " and trims, so library messages stay one line.
-std::string oneLine(std::string s);
+std::string oneLine(const std::string& s);
 
 }  // namespace somm::detail

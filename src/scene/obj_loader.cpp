@@ -25,18 +25,6 @@ namespace somm::detail {
 
 namespace {
 
-void splitLines(const std::string& text, const std::string& prefix, std::vector<std::string>& out) {
-  size_t start = 0;
-  while (start < text.size()) {
-    size_t end = text.find('\n', start);
-    if (end == std::string::npos) end = text.size();
-    std::string line = text.substr(start, end - start);
-    while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
-    if (!line.empty()) out.push_back(prefix + line);
-    start = end + 1;
-  }
-}
-
 // Face, line and point indices must fit tinyobjloader's int (it overflows silently): the first token of a line
 // that is f/l/p, then every run of digits of at most 10 digits and ≤ 2^31 − 1. Returns the offending line or 0.
 size_t badIndexLine(const std::string& text, std::string& token) {
@@ -274,7 +262,7 @@ Result<Scene> ObjLoader::run() {
     std::string msg = oneLine(err);
     return fail(ErrorCode::CorruptFile, msg.empty() ? "cannot parse OBJ" : msg);
   }
-  splitLines(warn, "", scene_.warnings);
+  splitLines(warn, scene_.warnings);
   scene_.sourcePath = path_;
   scene_.inputFiles.push_back(path_);
   scene_.inputFiles.insert(scene_.inputFiles.end(), mtl.read.begin(), mtl.read.end());

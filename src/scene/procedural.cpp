@@ -217,7 +217,7 @@ Scene makeLeafCardScene(uint32_t cards, uint32_t seed, uint32_t atlasSize) {
     }
     const float half = 0.5f * rng.uniform(0.25f, 0.6f);
     const uint32_t q = rng.below(4);
-    const float qu = 0.5f * float(q % 2), qv = 0.5f * float(q / 2);
+    const float qu = 0.5f * float(q % 2), qv = q >= 2 ? 0.5f : 0.0f;
     float uv[4];
     uv[0] = qu + rng.uniform(-0.025f, 0.025f);
     uv[1] = qv + rng.uniform(-0.025f, 0.025f);

@@ -50,4 +50,20 @@ Result<Scene> loadScene(const std::string& path, const LoadOptions& options) {
   return r;
 }
 
+namespace detail {
+
+void splitLines(const std::string& text, std::vector<std::string>& out) {
+  size_t start = 0;
+  while (start < text.size()) {
+    size_t end = text.find('\n', start);
+    if (end == std::string::npos) end = text.size();
+    std::string line = text.substr(start, end - start);
+    while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
+    if (!line.empty()) out.push_back(std::move(line));
+    start = end + 1;
+  }
+}
+
+}  // namespace detail
+
 }  // namespace somm

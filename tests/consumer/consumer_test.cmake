@@ -39,11 +39,22 @@ file(MAKE_DIRECTORY ${WORK_DIR})
 # ---- 1. install + find_package ----
 run(${CMAKE_COMMAND} --install ${SOMM_BINARY_DIR} --prefix ${WORK_DIR}/prefix)
 foreach(f include/somm/somm.h include/somm/bake.h lib/cmake/somm/sommConfig.cmake
-          lib/cmake/somm/sommConfigVersion.cmake lib/pkgconfig/somm.pc share/doc/somm/LICENSE)
+          lib/cmake/somm/sommConfigVersion.cmake lib/pkgconfig/somm.pc share/doc/somm/LICENSE
+          share/somm/shaders/somm.glsl share/somm/shaders/somm.hlsl share/somm/shaders/somm_lookup.inc
+          share/somm/shaders/examples/anyhit_succinct_tree.rahit)
   if(NOT EXISTS ${WORK_DIR}/prefix/${f})
     message(FATAL_ERROR "the install lacks ${f}")
   endif()
 endforeach()
+# The installed shaders are self-contained: the harness kernels compile against them alone (when glslang is here).
+find_program(GLSLANG glslangValidator)
+if(GLSLANG)
+  set(shaders ${WORK_DIR}/prefix/share/somm/shaders)
+  run(${GLSLANG} -V --target-env vulkan1.0 -I${shaders} -o ${WORK_DIR}/check_glsl.spv
+      ${SOMM_SOURCE_DIR}/src/gpu/kernels/check.comp)
+  run(${GLSLANG} -V -D --target-env vulkan1.0 -S comp -e main -I${shaders} -o ${WORK_DIR}/check_hlsl.spv
+      ${SOMM_SOURCE_DIR}/src/gpu/kernels/check.hlsl)
+endif()
 run(${CMAKE_COMMAND} -S ${SOMM_SOURCE_DIR}/examples -B ${WORK_DIR}/find -G ${GENERATOR}
     -DCMAKE_C_COMPILER=${C_COMPILER} -DCMAKE_CXX_COMPILER=${CXX_COMPILER} ${launcher}
     -DCMAKE_PREFIX_PATH=${WORK_DIR}/prefix -DCMAKE_BUILD_TYPE=Release)

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
-// The layout constants of shaders/somm.glsl and somm.hlsl equal the C++ ones, and both files define the same
-// functions.
+// The layout constants of the shader lookups (shaders/somm_lookup.inc, shared by somm.glsl and somm.hlsl) equal
+// the C++ ones, both front files compile the one shared source, and no `?:` operand calls a function (HLSL
+// evaluates both operands).
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -20,17 +21,20 @@
 
 namespace {
 
-std::string readShader(const char* name) {
-  std::ifstream f(std::string(SOMM_SHADER_DIR) + "/" + name);
+std::string readFile(const std::string& path) {
+  std::ifstream f(path);
   std::stringstream ss;
   ss << f.rdbuf();
   return ss.str();
 }
+std::string readShader(const char* name) {
+  return readFile(std::string(SOMM_SHADER_DIR) + "/" + name);
+}
 
-// "const uint SOMM_X = 12u;" / "static const uint SOMM_X = 0x434e4553u;"
+// "SOMM_CONST uint SOMM_X = 12u;" (SOMM_CONST is `const` in GLSL, `static const` in HLSL)
 std::map<std::string, uint64_t> constants(const std::string& src) {
   std::map<std::string, uint64_t> out;
-  const std::regex re(R"((?:static )?const uint (SOMM_[A-Z0-9_]+) = (0x[0-9a-fA-F]+|[0-9]+)u;)");
+  const std::regex re(R"(SOMM_CONST uint (SOMM_[A-Z0-9_]+) = (0x[0-9a-fA-F]+|[0-9]+)u;)");
   for (auto it = std::sregex_iterator(src.begin(), src.end(), re); it != std::sregex_iterator(); ++it)
     out[(*it)[1]] = std::stoull((*it)[2], nullptr, 0);
   return out;
@@ -85,7 +89,8 @@ TEST(ShaderConstants, EqualTheCppLayout) {
       {"SOMM_KIND_CSM", SOMM_ENUMERATOR_OR_NONE(somm::MapKind, Csm)},
       {"SOMM_KIND_SDAG", SOMM_ENUMERATOR_OR_NONE(somm::MapKind, Sdag)},
   };
-  for (const char* file : {"somm.glsl", "somm.hlsl"}) {
+  {
+    const char* file = "somm_lookup.inc";
     const std::string src = readShader(file);
     ASSERT_FALSE(src.empty()) << file;
     std::map<std::string, uint64_t> c = constants(src);
@@ -109,7 +114,8 @@ uint32_t le32(const std::vector<uint8_t>& b, size_t at) {
 // The header fields where sommArray() reads them: magic at 0, encoding at byte 5, index size at 6, triangles at
 // 8, maps at 12, the index buffer at 20, then descriptors (offset u32, level, format, kind).
 TEST(ShaderConstants, ArrayHeaderFieldsWhereTheShaderReadsThem) {
-  for (const char* file : {"somm.glsl", "somm.hlsl"}) {
+  {
+    const char* file = "somm_lookup.inc";
     const std::map<std::string, uint64_t> c = constants(readShader(file));
     const somm::OmmArray flat = somm::testing::randomOmmArray(30, somm::Format::FourState, 1, 4, 9);
     for (somm::Encoding e : somm::kAllEncodings) {
@@ -138,16 +144,73 @@ TEST(ShaderConstants, ArrayHeaderFieldsWhereTheShaderReadsThem) {
   }
 }
 
-TEST(ShaderConstants, GlslAndHlslDefineTheSameFunctions) {
-  const std::set<std::string> glsl = functions(readShader("somm.glsl"));
-  const std::set<std::string> hlsl = functions(readShader("somm.hlsl"));
-  EXPECT_GE(glsl.size(), 20u);
-  EXPECT_EQ(glsl, hlsl);
+TEST(ShaderConstants, GlslAndHlslCompileTheOneSharedSource) {
+  const std::set<std::string> shared = functions(readShader("somm_lookup.inc"));
+  EXPECT_GE(shared.size(), 20u);
   for (const char* f : {"sommBaryToIndex", "sommStateUV", "sommState", "sommFlatState", "sommDfsState",
-                        "sommDfsFastState", "sommRankState"}) {
+                        "sommDfsFastState", "sommRankState", "sommCsmState", "sommSdagState"}) {
     bool found = false;
-    for (const std::string& s : glsl) found = found || s.rfind(std::string(f) + "(", 0) == 0;
+    for (const std::string& s : shared) found = found || s.rfind(std::string(f) + "(", 0) == 0;
     EXPECT_TRUE(found) << f;
+  }
+  // The front files only define the per-language macros and include the shared source: no lookup of their own.
+  for (const char* file : {"somm.glsl", "somm.hlsl"}) {
+    const std::string src = readShader(file);
+    EXPECT_NE(src.find("#include \"somm_lookup.inc\""), std::string::npos) << file;
+    EXPECT_TRUE(functions(src).empty()) << file;
+    EXPECT_EQ(constants(src).size(), 0u) << file;
+  }
+}
+
+// The operands of every `?:` in `src` that call something other than a pure built-in or cast: HLSL evaluates
+// both operands of the conditional operator, so such a call runs even when it is not chosen. (The cause of the
+// old HLSL dfs mismatches: the check kernel's `mode == 0 ? sommStateUV(...) : sommState(...)` also ran a
+// lookup in a garbage "array", whose loops used up llvmpipe's per-invocation loop budget.)
+std::vector<std::string> callsInConditionalOperands(const std::string& src) {
+  std::string code;  // comments and preprocessor lines removed
+  std::istringstream in(src);
+  for (std::string line; std::getline(in, line);) {
+    line = line.substr(0, line.find("//"));
+    const size_t first = line.find_first_not_of(" \t");
+    if (first != std::string::npos && line[first] == '#') continue;
+    code += line + "\n";
+  }
+  std::vector<std::string> out;
+  const std::regex call(R"(([A-Za-z_][A-Za-z0-9_]*)\s*\()");
+  const std::set<std::string> pure = {"uint", "int",           "float",          "min",
+                                      "max",  "SOMM_POPCOUNT", "SOMM_FLOAT_BITS"};
+  size_t start = 0;
+  for (size_t end; (end = code.find_first_of(";{}", start)) != std::string::npos; start = end + 1) {
+    const std::string stmt = code.substr(start, end - start);
+    const size_t q = stmt.find('?');
+    if (q == std::string::npos) continue;
+    const std::string operands = stmt.substr(q + 1);
+    bool calls = false;
+    for (auto it = std::sregex_iterator(operands.begin(), operands.end(), call); it != std::sregex_iterator();
+         ++it)
+      calls = calls || pure.count((*it)[1].str()) == 0;
+    if (calls) out.push_back(stmt);
+  }
+  return out;
+}
+
+TEST(ShaderConstants, NoCallInAConditionalOperand) {
+  // The rule's own check: the two forms that caused the bug are found, plain values are not.
+  EXPECT_EQ(
+      callsInConditionalOperands("r = mode == 0u ? sommStateUV(a, t, u, v) : sommState(a, t, i);").size(),
+      1u);
+  EXPECT_EQ(callsInConditionalOperands("uint x = w != 0u ? sommBits(blob, 0u, w) : 0u;").size(), 1u);
+  EXPECT_TRUE(callsInConditionalOperands("uint f = s <= 26u ? mant << (26u - s) : mant >> min(s - 26u, 31u);")
+                  .empty());
+  const std::string kernels = std::string(SOMM_SHADER_DIR) + "/../src/gpu/kernels/";
+  for (const std::string& path :
+       {std::string(SOMM_SHADER_DIR) + "/somm_lookup.inc", std::string(SOMM_SHADER_DIR) + "/somm.glsl",
+        std::string(SOMM_SHADER_DIR) + "/somm.hlsl", kernels + "check.comp", kernels + "check.hlsl",
+        std::string(SOMM_SHADER_DIR) + "/examples/anyhit_software_micromap.rahit",
+        std::string(SOMM_SHADER_DIR) + "/examples/anyhit_succinct_tree.rahit"}) {
+    const std::string src = readFile(path);
+    ASSERT_FALSE(src.empty()) << path;
+    for (const std::string& stmt : callsInConditionalOperands(src)) ADD_FAILURE() << path << ":" << stmt;
   }
 }
 

@@ -378,8 +378,8 @@ void setup(CLI::App& root) {
   cmd->add_option("--threads,-j", o->threads, "worker threads (default: all)")->check(CLI::Range(0u, 1024u));
   somm::cli::addLimitOption(cmd, o->limits);
   cmd->add_option("--encoding,-e", o->encodings,
-                  "also store these encodings of each array (docs/encodings.md): comma list of flat, dfs, "
-                  "dfs-fast, rank, hybrid, csm, sdag, or all");
+                  "also store these encodings of each array (docs/encodings.md): comma list of " +
+                      somm::cli::encodingNameList() + ", or all");
   cmd->add_option("--arrays", o->arrays,
                   "scene (default): one OMM array shared by all geometries, identical maps stored once; "
                   "geometry: one array per geometry")

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "command.h"
+#include "encodings.h"
 #include "gpu_arrays.h"
 #include "somm/bird.h"
 #include "somm/gpu.h"
@@ -210,7 +211,7 @@ void reportMismatch(const char* what, const char* lang, const Query& q, uint32_t
 bool validEncodingOption(const char* command, const std::string& e) {
   if (e == "all" || somm::parseEncodingName(e)) return true;
   somm::cli::printError(command,
-                        "--encoding '" + e + "' is not one of flat, dfs, dfs-fast, rank, hybrid, all");
+                        "--encoding '" + e + "' is not one of " + somm::cli::encodingNameList() + ", all");
   return false;
 }
 
@@ -370,7 +371,7 @@ void setupCheck(CLI::App& root) {
       "mismatches'; exit 1 on any mismatch or when there is no Vulkan device.");
   cmd->add_option("file", o->path, ".somm file")->required();
   cmd->add_option("--encoding,-e", o->encoding,
-                  "flat, dfs, dfs-fast, rank, hybrid or all (default: all stored)");
+                  somm::cli::encodingNameList() + " or all (default: all stored)");
   cmd->add_option("--samples,-n", o->samples, "lookups per encoding and shader (default 100000)")
       ->check(CLI::Range(uint64_t(1), uint64_t(1) << 26));
   cmd->add_option("--shader", o->shader, "glsl, hlsl or both (default)")
@@ -387,7 +388,7 @@ void setupBench(CLI::App& root) {
                                       "in the same run (on lavapipe these are CPU figures).");
   cmd->add_option("file", o->path, ".somm file")->required();
   cmd->add_option("--encoding,-e", o->encoding,
-                  "flat, dfs, dfs-fast, rank, hybrid or all (default: all stored)");
+                  somm::cli::encodingNameList() + " or all (default: all stored)");
   cmd->add_option("--samples,-n", o->samples, "lookups per dispatch (default 1048576)")
       ->check(CLI::Range(uint64_t(1), uint64_t(1) << 26));
   cmd->add_option("--repeat,-r", o->repeats, "dispatches per encoding; the fastest counts (default 5)")

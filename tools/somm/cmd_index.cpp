@@ -32,13 +32,11 @@ int run(const Options& o) {
   };
   std::string_view line;
   while (in.next(line)) {
-    std::string_view rest = line;
-    const std::string_view a = nextToken(rest);
-    if (a.empty()) continue;  // blank line
-    const std::string_view b = nextToken(rest);
-    const std::string_view extra = nextToken(rest);
     float u, v;
-    if (b.empty() || !extra.empty() || !parseFloat(a, u) || !parseFloat(b, v)) {
+    bool blank;
+    const bool ok = parseUVLine(line, u, v, blank);
+    if (blank) continue;
+    if (!ok) {
       drain();
       out.flush();
       printError("index", "stdin line " + std::to_string(in.lineNumber()) +
@@ -60,9 +58,7 @@ void setup(CLI::App& root) {
       "Map barycentrics to bird-curve micro-triangle indices. Reads one 'u v' pair per line from stdin "
       "(decimal or "
       "hex floats, parsed like strtof; u, v = weights of vertices 1 and 2) and prints one index per line.");
-  cmd->add_option("--level,-l", opts->level, "subdivision level 0..12")
-      ->required()
-      ->check(CLI::Range(0u, somm::kMaxLevel));
+  somm::cli::addRequiredLevel(cmd, opts->level);
   cmd->callback([opts] { somm::cli::setExitCode(run(*opts)); });
 }
 

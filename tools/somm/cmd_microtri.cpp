@@ -53,9 +53,7 @@ void setup(CLI::App& root) {
       "Print the vertices of micro-triangles. Reads one index per line from stdin and prints 'u0 v0 u1 v1 u2 "
       "v2': the "
       "vertices in the curve's winding as integer barycentric grid coordinates in units of 2^-level.");
-  cmd->add_option("--level,-l", opts->level, "subdivision level 0..12")
-      ->required()
-      ->check(CLI::Range(0u, somm::kMaxLevel));
+  somm::cli::addRequiredLevel(cmd, opts->level);
   cmd->callback([opts] { somm::cli::setExitCode(run(*opts)); });
 }
 

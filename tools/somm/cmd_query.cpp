@@ -40,8 +40,7 @@ int run(const Options& o) {
   }
   const auto enc = somm::parseEncodingName(o.encoding);
   if (!enc) {
-    printError("query",
-               "--encoding '" + o.encoding + "' is not one of flat, dfs, dfs-fast, rank, hybrid, csm, sdag");
+    printError("query", "--encoding '" + o.encoding + "' is not one of " + encodingNameList());
     return kExitUsage;
   }
   // The geometry's triangles live in its array at firstTriangle + T (a scene-wide array holds every geometry).
@@ -57,12 +56,11 @@ int run(const Options& o) {
   Output out;
   std::string_view line;
   while (in.next(line)) {
-    std::string_view rest = line;
-    const std::string_view a = nextToken(rest);
-    if (a.empty()) continue;  // blank line
-    const std::string_view b = nextToken(rest);
     float u, v;
-    if (b.empty() || !nextToken(rest).empty() || !parseFloat(a, u) || !parseFloat(b, v)) {
+    bool blank;
+    const bool ok = parseUVLine(line, u, v, blank);
+    if (blank) continue;
+    if (!ok) {
       out.flush();
       printError("query", "stdin line " + std::to_string(in.lineNumber()) +
                               ": expected two floats 'u v', got '" + excerpt(line) + "'");
@@ -90,9 +88,8 @@ void setup(CLI::App& root) {
   cmd->add_option("--triangle,-t", opts->triangle,
                   "triangle index within the geometry (0 .. its triangle count - 1)")
       ->required();
-  cmd->add_option(
-      "--encoding,-e", opts->encoding,
-      "answer from this stored encoding: flat (default), dfs, dfs-fast, rank, hybrid, csm or sdag");
+  cmd->add_option("--encoding,-e", opts->encoding,
+                  "answer from this stored encoding (default flat): " + somm::cli::encodingNameList());
   cmd->callback([opts] { somm::cli::setExitCode(run(*opts)); });
 }
 

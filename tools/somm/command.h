@@ -32,6 +32,11 @@ inline const CLI::Validator NotNan(
 
 using SetupFn = void (*)(CLI::App& root);
 
+// The required `--level,-l` option of the bird-curve commands (index, microtri): 0..12.
+inline void addRequiredLevel(CLI::App* cmd, uint32_t& level) {
+  cmd->add_option("--level,-l", level, "subdivision level 0..12")->required()->check(CLI::Range(0u, 12u));
+}
+
 struct Registration {
   Registration(const char* name, SetupFn setup);
 };

@@ -1,9 +1,6 @@
 // SPDX-License-Identifier: MIT
 #include "encodings.h"
 
-#include <lzma.h>
-#include <zstd.h>
-
 #include <algorithm>
 #include <span>
 
@@ -95,25 +92,10 @@ Result<EncodedArray> loadEncoding(const SommFile& file, uint32_t array, Encoding
       where + " stores no '" + encodingName(e) + "' encoding (bake with --encoding " + encodingName(e) + ")");
 }
 
-uint64_t zstdBytes(std::span<const uint8_t> bytes) {
-  std::vector<uint8_t> out(ZSTD_compressBound(bytes.size()));
-  const size_t n = ZSTD_compress(out.data(), out.size(), bytes.data(), bytes.size(), 19);
-  return ZSTD_isError(n) ? 0 : n;
-}
-
-uint64_t xzBytes(std::span<const uint8_t> bytes) {
-  // xz -9 (preset 9, CRC64), with the dictionary no larger than the input: identical matches, far less
-  // memory.
-  lzma_options_lzma opt;
-  if (lzma_lzma_preset(&opt, 9)) return 0;
-  opt.dict_size = uint32_t(std::clamp<uint64_t>(bytes.size(), LZMA_DICT_SIZE_MIN, opt.dict_size));
-  lzma_filter filters[2] = {{LZMA_FILTER_LZMA2, &opt}, {LZMA_VLI_UNKNOWN, nullptr}};
-  std::vector<uint8_t> out(lzma_stream_buffer_bound(bytes.size()));
-  size_t pos = 0;
-  if (lzma_stream_buffer_encode(filters, LZMA_CHECK_CRC64, nullptr, bytes.data(), bytes.size(), out.data(),
-                                &pos, out.size()) != LZMA_OK)
-    return 0;
-  return pos;
+std::string encodingNameList() {
+  std::string s;
+  for (Encoding e : kAllEncodings) (s += s.empty() ? "" : ", ") += encodingName(e);
+  return s;
 }
 
 void EncodingSizes::add(const EncodingSizes& o) {
@@ -121,7 +103,8 @@ void EncodingSizes::add(const EncodingSizes& o) {
   zstd += o.zstd;
   xz += o.xz;
   for (const auto& entry : o.stored) {
-    auto it = std::find_if(stored.begin(), stored.end(), [&](const auto& p) { return p.first == entry.first; });
+    auto it =
+        std::find_if(stored.begin(), stored.end(), [&](const auto& p) { return p.first == entry.first; });
     if (it == stored.end())
       stored.push_back(entry);
     else

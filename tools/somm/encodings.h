@@ -11,6 +11,7 @@
 #include <string_view>
 #include <vector>
 
+#include "reference_compressors.h"
 #include "somm/encode.h"
 #include "somm/somm_file.h"
 
@@ -36,9 +37,9 @@ Status addEncodingSections(SommFile& file, std::span<const Encoding> encodings);
 // array.
 Result<EncodedArray> loadEncoding(const SommFile& file, uint32_t array, Encoding e, std::string_view what);
 
-// Non-random-access references: the size of `bytes` compressed with zstd -19 and xz -9.
-uint64_t zstdBytes(std::span<const uint8_t> bytes);
-uint64_t xzBytes(std::span<const uint8_t> bytes);
+// Every encoding name in kAllEncodings order, comma-separated ("flat, dfs, …, sdag"): the one list every option
+// help and error message shows.
+std::string encodingNameList();
 
 // Exact bytes of each encoding of one or more arrays (serialized EncodedArray size: header, index buffer,
 // descriptors, data, padding) plus the compressed references of the flat array.

@@ -25,9 +25,8 @@ Result<std::vector<GpuEncoding>> loadGpuEncodings(const SommFile& file, const st
   } else {
     const auto e = parseEncodingName(encoding);
     if (!e)
-      return makeError(
-          ErrorCode::InvalidArgument,
-          "--encoding '" + encoding + "' is not one of flat, dfs, dfs-fast, rank, hybrid, csm, sdag, all");
+      return makeError(ErrorCode::InvalidArgument, "--encoding '" + encoding + "' is not one of " +
+                                                       somm::cli::encodingNameList() + ", all");
     wanted.push_back(*e);
   }
   std::vector<GpuEncoding> out;

@@ -50,6 +50,15 @@ std::string_view nextToken(std::string_view& rest) {
   return tok;
 }
 
+bool parseUVLine(std::string_view line, float& u, float& v, bool& blank) {
+  std::string_view rest = line;
+  const std::string_view a = nextToken(rest);
+  blank = a.empty();
+  if (blank) return true;
+  const std::string_view b = nextToken(rest);
+  return !b.empty() && nextToken(rest).empty() && parseFloat(a, u) && parseFloat(b, v);
+}
+
 bool parseFloat(std::string_view token, float& out) {
   if (token.empty() || token.size() > 4096) return false;
   char local[128];

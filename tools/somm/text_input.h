@@ -32,6 +32,9 @@ std::string_view nextToken(std::string_view& rest);
 // Parses a whole token as a float exactly as strtof does (decimal, hex floats, inf, nan). False if malformed
 // or if anything is left over.
 bool parseFloat(std::string_view token, float& out);
+// A stdin line of the form "u v" (two floats, nothing else; see parseFloat). Blank: true for an empty or
+// whitespace-only line (u, v untouched; the caller skips it). Returns false for a malformed line.
+bool parseUVLine(std::string_view line, float& u, float& v, bool& blank);
 // The start of an input line for an error message: at most `max` bytes, non-printable bytes as \xNN (so a
 // message stays one printable line whatever the input holds), "..." when cut.
 std::string excerpt(std::string_view line, size_t max = 80);

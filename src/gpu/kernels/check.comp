@@ -30,8 +30,8 @@ void main() {
     r = sommBaryToIndex(u, v, q.w);
   } else {
     // StateUV: the array at params.base + q.w (one dispatch covers several arrays); StateIndex: index q.w.
-    r = params.mode == 0u ? sommStateUV(sommArray(params.base + q.w), q.x, u, v)
-                          : sommState(sommArray(params.base), q.x, q.w);
+    if (params.mode == 0u) r = sommStateUV(sommArray(params.base + q.w), q.x, u, v);
+    else r = sommState(sommArray(params.base), q.x, q.w);
   }
   results[id] = r;
 }

@@ -27,8 +27,9 @@ struct Params {
     r = sommBaryToIndex(u, v, q.w);
   } else {
     // StateUV: the array at params.base + q.w (one dispatch covers several arrays); StateIndex: index q.w.
-    r = params.mode == 0u ? sommStateUV(sommArray(params.base + q.w), q.x, u, v)
-                          : sommState(sommArray(params.base), q.x, q.w);
+    // if / else, not ?: — HLSL would run both lookups (the old dfs mismatches; docs/shaders.md).
+    if (params.mode == 0u) r = sommStateUV(sommArray(params.base + q.w), q.x, u, v);
+    else r = sommState(sommArray(params.base), q.x, q.w);
   }
   results[id] = r;
 }

@@ -10,6 +10,9 @@
 //   2: build: micromaps made from the bytes → OmmArray → every encoding (csm and sdag included: the maps share
 //      subtrees, some are repeated with a few states changed); lookups equal flat, decode() is bit-exact,
 //      serialise → parse round-trips.
+// In every mode an accepted array must pass verifyAgainstFlat against its own decoded spec buffers (the check a
+// .somm load makes), and fail it (CorruptFile naming the difference) once one micro-triangle of the flat side is
+// changed; LimitExceeded (its work bound) is the only other outcome allowed.
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
@@ -84,6 +87,30 @@ void checkArray(const EncodedArray& a) {
   }
   for (uint32_t t = 0; t < a.triangleCount(); ++t)
     if (a.state(t, 0) != flat.state(t, 0)) fail("state() differs from stateAs<E>()");
+  const somm::Status v = somm::verifyAgainstFlat(a, flat, "fuzz.verify");
+  if (!v.ok() && v.error().code != somm::ErrorCode::LimitExceeded)
+    fail("verifyAgainstFlat refuses the array's own decode:", v.error().message);
+  if (v.ok()) {
+    // One micro-triangle of the first triangle with a map, changed on the flat side: must be found.
+    for (uint32_t t = 0; t < flat.indices.size(); ++t) {
+      const int32_t i = flat.indices[t];
+      if (i < 0) continue;
+      somm::OmmArray changed = flat;
+      const somm::TriangleDescriptor& d = changed.descriptors[size_t(i)];
+      const somm::Format f = somm::Format(d.format);
+      const uint32_t m = somm::microTriangleCount(d.subdivisionLevel) - 1;
+      uint8_t* map = changed.data.data() + d.dataOffset;
+      const State s = somm::readPackedState(map, f, m);
+      somm::writePackedState(map, f, m, State((uint32_t(s) + 1) & (f == somm::Format::TwoState ? 1u : 3u)));
+      const somm::Status w = somm::verifyAgainstFlat(a, changed, "fuzz.verify");
+      if (w.ok()) fail("verifyAgainstFlat misses a changed micro-triangle");
+      if (w.error().code != somm::ErrorCode::CorruptFile && w.error().code != somm::ErrorCode::LimitExceeded)
+        fail("verifyAgainstFlat: unexpected error code", w.error().message);
+      if (w.error().message.rfind("fuzz.verify", 0) != 0 || w.error().message.find('\n') != std::string::npos)
+        fail("verifyAgainstFlat: bad error message:", w.error().message);
+      break;
+    }
+  }
   const std::vector<uint8_t> bytes = a.serialize();
   if (bytes.size() != a.byteSize()) fail("serialised size differs from byteSize()");
   const auto again = EncodedArray::parse(bytes, "roundtrip");

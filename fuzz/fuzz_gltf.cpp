@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 // Fuzz target: the glTF 2.0 path of loadScene (tinygltf + our accessor, material, texture and node handling), and
-// the EXT_mesh_opacity_micromap reader (readGltfMicromaps: every MUST of the draft; docs/gltf.md) on the same file.
+// the EXT_mesh_opacity_micromap reader (readGltfMicromaps: every MUST of the draft; docs/gltf.md) on the same file,
+// and readMicromapFile (what `somm info` / `query` open a glTF with): it must agree with the reader.
 // The first input byte picks .gltf (even) or .glb (odd); the rest is the file. The scratch directory holds
 // t.png and b.bin (64 bytes) for external URIs. Loaded scenes must satisfy the invariants in
 // scene_fuzz_util.h; errors must be one line naming the file.
@@ -9,6 +10,7 @@
 
 #include "scene_fuzz_util.h"
 #include "somm/gltf.h"
+#include "somm/somm_file.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace somm;
@@ -23,6 +25,19 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     fuzz::checkError("fuzz_gltf", s.error(), path);
   // The micromaps: accepted ones must be internally consistent (every lookup resolvable, every region readable).
   const Result<GltfMicromapsRead> m = readGltfMicromaps(path);
+  const Result<SommFile> file = readMicromapFile(path);
+  if (file.ok() != (m.ok() && m->present))
+    fuzz::fail("fuzz_gltf", "readMicromapFile disagrees with readGltfMicromaps");
+  if (file.ok()) {
+    if (file->micromaps.arrays.size() != m->value.micromaps.arrays.size() ||
+        file->geometries.size() != m->value.geometries.size())
+      fuzz::fail("fuzz_gltf", "readMicromapFile: other arrays or geometries than readGltfMicromaps");
+    for (const OmmArray& a : file->micromaps.arrays)
+      if (!validateOmmArray(a, "fuzz").ok())
+        fuzz::fail("fuzz_gltf", "readMicromapFile: an array does not validate");
+  } else {
+    fuzz::checkError("fuzz_gltf", file.error(), path);
+  }
   if (!m.ok()) {
     fuzz::checkError("fuzz_gltf", m.error(), path);
     return 0;

@@ -3,7 +3,10 @@
 // version, size and checksum checks) and with every checksum and the declared size recomputed, so that
 // mutations reach the structural validation behind the checksums. A parsed file must be internally valid:
 // every lookup a ray tracer or `somm query` can make stays inside the buffers, and serialising it gives a
-// file that parses to the same bytes.
+// file that parses to the same bytes. Every stored encoding (ENCD section: dfs, rank, hybrid, csm, sdag) is loaded
+// the way `somm info` / `query --encoding` load it (tools/somm/encodings.cpp: parse, match the array,
+// verifyAgainstFlat); an accepted one must answer exactly like the flat buffers (dfs also through the dfs-fast
+// lookup), a refused one with a one-line message.
 #include <xxhash.h>
 
 #include <cstddef>
@@ -14,6 +17,7 @@
 #include <span>
 #include <vector>
 
+#include "somm/encode.h"
 #include "somm/somm_file.h"
 
 namespace {
@@ -50,6 +54,50 @@ void fixChecksums(std::vector<uint8_t>& b) {
   }
 }
 
+void checkError(const somm::Error& e, const char* name);
+
+// The flat state of micro-triangle m of array triangle t (special indices resolved).
+somm::State flatState(const somm::OmmArray& a, uint32_t t, uint32_t m) {
+  const int32_t i = a.indices[t];
+  if (i < 0) return somm::stateOfSpecialIndex(i);
+  const somm::TriangleDescriptor& d = a.descriptors[size_t(i)];
+  return somm::readPackedState(a.data.data() + d.dataOffset, somm::Format(d.format), m);
+}
+
+void checkEncodings(const somm::SommFile& f) {
+  for (size_t a = 0; a < f.encodings.size(); ++a) {
+    const somm::OmmArray& flat = f.micromaps.arrays[a];
+    for (const somm::EncodedSection& s : f.encodings[a]) {
+      auto e =
+          somm::EncodedArray::parse(somm::Span<const uint8_t>(s.bytes.data(), s.bytes.size()), "fuzz.enc");
+      if (!e) {
+        checkError(e.error(), "fuzz.enc");
+        continue;
+      }
+      if (e->triangleCount() != flat.indices.size()) continue;  // loadEncoding refuses it
+      if (somm::Status v = somm::verifyAgainstFlat(*e, flat, "fuzz.verify"); !v) {
+        checkError(v.error(), "fuzz.verify");
+        continue;
+      }
+      // Verified: every lookup must agree with flat (sampled: up to 256 triangles, 64 micro-triangles each).
+      for (int pass = 0; pass < 2; ++pass) {
+        if (pass == 1 && !e->setLookup(somm::Encoding::DfsFast)) break;
+        for (uint32_t t = 0; t < e->triangleCount() && t < 256; ++t) {
+          const int32_t i = flat.indices[t];
+          const uint32_t level = i < 0 ? 0 : flat.descriptors[size_t(i)].subdivisionLevel;
+          const uint32_t n = somm::microTriangleCount(level), step = n / 64 + 1;
+          for (uint32_t m = 0; m < n; m += step)
+            if (e->state(t, m) != flatState(flat, t, m)) fail("a verified encoding differs from flat");
+          if (e->state(t, n - 1) != flatState(flat, t, n - 1)) fail("a verified encoding differs from flat");
+          for (const float uv : {0.0f, 0.2f, 0.49f, 1.0f})
+            if (e->stateUV(t, uv, 0.3f) != flatState(flat, t, somm::baryToIndex(uv, 0.3f, level)))
+              fail("a verified encoding differs from flat (stateUV)");
+        }
+      }
+    }
+  }
+}
+
 void checkParsed(const somm::SommFile& f) {
   const somm::SceneMicromaps& m = f.micromaps;
   if (m.geometries.size() != f.geometries.size() || f.encodings.size() != m.arrays.size())
@@ -73,6 +121,7 @@ void checkParsed(const somm::SommFile& f) {
       sink = sink + uint32_t(m.stateUV(g, t, 0.3f, 0.6f)) + uint32_t(m.stateUV(g, t, 1.0f, 1.0f));
     }
   }
+  checkEncodings(f);
   const auto bytes = somm::serializeSomm(f);
   if (!bytes.ok()) fail("a parsed file does not serialise:", bytes.error().message);
   const auto again = somm::parseSomm(*bytes, "fuzz-roundtrip.somm");

@@ -87,6 +87,10 @@ struct Scene {
   std::vector<Instance> instances;
   std::optional<Camera> camera;       // the first glTF camera, if any
   std::vector<std::string> warnings;  // non-fatal notes (skipped primitives, BLEND materials, ...)
+  // Every file the loader read: the scene file, external glTF buffers and images, OBJ material libraries and
+  // textures. A command's output must not replace any of them (`render scene.gltf -o leaf.png` overwrote the
+  // scene's own texture).
+  std::vector<std::string> inputFiles;
 };
 
 struct LoadOptions {

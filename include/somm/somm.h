@@ -182,7 +182,8 @@ typedef enum somm_array_layout {
 } somm_array_layout;
 
 /* Progress: fraction done in [0, 1], non-decreasing, called on the calling thread. Return non-zero to cancel
- * (somm_bake then returns SOMM_ERROR_CANCELLED and no result). */
+ * (somm_bake then returns SOMM_ERROR_CANCELLED and no result). The last call, with 1, comes once the work is done:
+ * its return value is ignored. */
 typedef int (*somm_progress_fn)(double fraction, void* user);
 
 typedef struct somm_bake_options {

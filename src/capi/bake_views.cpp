@@ -20,7 +20,7 @@ Error invalid(const std::string& m) {
   return makeError(ErrorCode::InvalidArgument, m);
 }
 
-uint32_t texelBytes(somm_texel_format f) {
+uint32_t texelBytes(int32_t f) {
   switch (f) {
     case SOMM_TEXEL_R8:
       return 1;
@@ -34,10 +34,11 @@ uint32_t texelBytes(somm_texel_format f) {
       return 8;
     case SOMM_TEXEL_R32F:
       return 4;
+    default:
+      return 0;
   }
-  return 0;
 }
-uint32_t channels(somm_texel_format f) {
+uint32_t channels(int32_t f) {
   switch (f) {
     case SOMM_TEXEL_R8:
     case SOMM_TEXEL_R16:
@@ -48,20 +49,21 @@ uint32_t channels(somm_texel_format f) {
     case SOMM_TEXEL_RGBA8:
     case SOMM_TEXEL_RGBA16:
       return 4;
+    default:
+      return 0;
   }
-  return 0;
 }
 
 // Alpha as the scene loaders compute it (src/scene/image_io.cpp): unorm v / (2^bits − 1) in double, then float.
 // Checks a texture view; with `fill`, also converts it to an AlphaTexture (otherwise returns null).
 Result<std::shared_ptr<const AlphaTexture>> convertTexture(const somm_texture& t, const std::string& what,
                                                            bool fill) {
-  const uint32_t tb = texelBytes(t.format);
-  if (tb == 0)
-    return invalid(what + ".format " + std::to_string(int(t.format)) + " is not a somm_texel_format");
-  if (t.alpha_channel >= channels(t.format))
+  const int32_t format = rawEnum(t.format);
+  const uint32_t tb = texelBytes(format);
+  if (tb == 0) return invalid(what + ".format " + std::to_string(format) + " is not a somm_texel_format");
+  if (t.alpha_channel >= channels(format))
     return invalid(what + ".alpha_channel " + std::to_string(t.alpha_channel) + " is out of range for a " +
-                   std::to_string(channels(t.format)) + "-channel format");
+                   std::to_string(channels(format)) + "-channel format");
   if (t.width == 0 || t.height == 0)
     return invalid(what + ": empty texture (" + std::to_string(t.width) + "x" + std::to_string(t.height) +
                    ")");
@@ -128,11 +130,12 @@ Result<std::shared_ptr<const AlphaTexture>> convertTexture(const somm_texture& t
 }
 
 Result<Sampler> convertSampler(const somm_sampler& s, const std::string& what) {
-  if (s.filter != SOMM_FILTER_NEAREST && s.filter != SOMM_FILTER_LINEAR)
-    return invalid(what + ".filter " + std::to_string(int(s.filter)) + " is not a somm_filter");
-  for (somm_wrap w : {s.wrap_s, s.wrap_t})
+  const int32_t filter = rawEnum(s.filter);
+  if (filter != SOMM_FILTER_NEAREST && filter != SOMM_FILTER_LINEAR)
+    return invalid(what + ".filter " + std::to_string(filter) + " is not a somm_filter");
+  for (int32_t w : {rawEnum(s.wrap_s), rawEnum(s.wrap_t)})
     if (w != SOMM_WRAP_REPEAT && w != SOMM_WRAP_CLAMP_TO_EDGE && w != SOMM_WRAP_MIRRORED_REPEAT)
-      return invalid(what + ": wrap mode " + std::to_string(int(w)) + " is not a somm_wrap");
+      return invalid(what + ": wrap mode " + std::to_string(w) + " is not a somm_wrap");
   Sampler out;
   out.filter = Filter(s.filter);
   out.wrapS = Wrap(s.wrap_s);
@@ -144,7 +147,7 @@ Result<Material> convertMaterial(const somm_material& m, uint32_t index, const s
   const std::string what = "materials[" + std::to_string(index) + "]";
   Material out;
   out.name = std::to_string(index);
-  switch (m.alpha_mode) {
+  switch (rawEnum(m.alpha_mode)) {
     case SOMM_ALPHA_OPAQUE:
       out.alphaMode = AlphaMode::Opaque;
       break;
@@ -155,7 +158,8 @@ Result<Material> convertMaterial(const somm_material& m, uint32_t index, const s
       out.alphaMode = o.blend == SOMM_BLEND_AS_MASK ? AlphaMode::Mask : AlphaMode::Blend;
       break;
     default:
-      return invalid(what + ".alpha_mode " + std::to_string(int(m.alpha_mode)) + " is not a somm_alpha_mode");
+      return invalid(what + ".alpha_mode " + std::to_string(rawEnum(m.alpha_mode)) +
+                     " is not a somm_alpha_mode");
   }
   if (!(m.cutoff >= 0.0f && m.cutoff <= 1.0f)) return invalid(what + ".cutoff must be a number in [0, 1]");
   out.alphaCutoff = m.cutoff;
@@ -181,18 +185,20 @@ Result<Geometry> convertGeometry(const somm_geometry& g, uint32_t index, bool ne
   out.name = std::to_string(index);
   out.material = g.material;
   const uint64_t n = g.triangle_count;
-  out.indices.resize(size_t(3 * n));
-  switch (g.index_type) {
+  switch (rawEnum(g.index_type)) {
     case SOMM_INDEX_NONE:
+      // Checked before allocating: a huge triangle_count with few vertices is an error, not 48 GB of indices.
       if (uint64_t(g.vertex_count) < 3 * n)
         return invalid(what + ": " + std::to_string(n) + " non-indexed triangles need " +
                        std::to_string(3 * n) + " vertices, vertex_count is " +
                        std::to_string(g.vertex_count));
+      out.indices.resize(size_t(3 * n));
       for (uint64_t i = 0; i < 3 * n; ++i) out.indices[size_t(i)] = uint32_t(i);
       break;
     case SOMM_INDEX_UINT16:
     case SOMM_INDEX_UINT32: {
       if (n && !g.indices) return invalid(what + ".indices is NULL");
+      out.indices.resize(size_t(3 * n));  // the caller's buffer holds 3n indices of 2 or 4 bytes
       const auto* p = static_cast<const unsigned char*>(g.indices);
       for (uint64_t i = 0; i < 3 * n; ++i) {
         uint32_t v;
@@ -211,7 +217,8 @@ Result<Geometry> convertGeometry(const somm_geometry& g, uint32_t index, bool ne
       break;
     }
     default:
-      return invalid(what + ".index_type " + std::to_string(int(g.index_type)) + " is not a somm_index_type");
+      return invalid(what + ".index_type " + std::to_string(rawEnum(g.index_type)) +
+                     " is not a somm_index_type");
   }
   if (!needUvs) return out;
   const size_t stride = g.uv_stride ? g.uv_stride : 2 * sizeof(float);
@@ -232,15 +239,17 @@ Status validateOptions(const somm_bake_options& o) {
     return invalid("options.max_level " + std::to_string(o.max_level) + " is out of range 0..12");
   if (!(o.texels_per_micro_triangle >= 0.0f) || !std::isfinite(o.texels_per_micro_triangle))
     return invalid("options.texels_per_micro_triangle must be a finite number >= 0");
-  if (o.format != SOMM_FORMAT_2_STATE && o.format != SOMM_FORMAT_4_STATE)
-    return invalid("options.format " + std::to_string(int(o.format)) + " is not a somm_format");
-  if (o.unknown_as != SOMM_UNKNOWN_AS_MAJORITY && o.unknown_as != SOMM_UNKNOWN_AS_OPAQUE &&
-      o.unknown_as != SOMM_UNKNOWN_AS_TRANSPARENT)
-    return invalid("options.unknown_as " + std::to_string(int(o.unknown_as)) + " is not a somm_unknown_as");
-  if (o.blend != SOMM_BLEND_UNKNOWN && o.blend != SOMM_BLEND_AS_MASK)
-    return invalid("options.blend " + std::to_string(int(o.blend)) + " is not a somm_blend_policy");
-  if (o.layout != SOMM_ARRAY_PER_GEOMETRY && o.layout != SOMM_ARRAY_PER_SCENE)
-    return invalid("options.layout " + std::to_string(int(o.layout)) + " is not a somm_array_layout");
+  const int32_t format = rawEnum(o.format), unknownAs = rawEnum(o.unknown_as), blend = rawEnum(o.blend),
+                layout = rawEnum(o.layout);
+  if (format != SOMM_FORMAT_2_STATE && format != SOMM_FORMAT_4_STATE)
+    return invalid("options.format " + std::to_string(format) + " is not a somm_format");
+  if (unknownAs != SOMM_UNKNOWN_AS_MAJORITY && unknownAs != SOMM_UNKNOWN_AS_OPAQUE &&
+      unknownAs != SOMM_UNKNOWN_AS_TRANSPARENT)
+    return invalid("options.unknown_as " + std::to_string(unknownAs) + " is not a somm_unknown_as");
+  if (blend != SOMM_BLEND_UNKNOWN && blend != SOMM_BLEND_AS_MASK)
+    return invalid("options.blend " + std::to_string(blend) + " is not a somm_blend_policy");
+  if (layout != SOMM_ARRAY_PER_GEOMETRY && layout != SOMM_ARRAY_PER_SCENE)
+    return invalid("options.layout " + std::to_string(layout) + " is not a somm_array_layout");
   return Ok{};
 }
 

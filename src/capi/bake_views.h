@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cstdint>
+#include <cstring>
 #include <vector>
 
 #include "somm/omm_array.h"
@@ -25,6 +26,18 @@ struct SceneBake {
   Format format = Format::FourState;
   uint32_t levelCap = 12;
 };
+
+// The value a C caller stored in an enum field, read as the int it is. A C enum object may hold any int value, but
+// loading one outside the enumerators' range through the C++ enum type is undefined behaviour (UBSan: "load of
+// value 100, which is not a valid value for type 'somm_format'"), so every enum field or parameter from the caller is
+// checked through this and loaded as its enum type only once it is known to be valid.
+template <class E>
+int32_t rawEnum(const E& field) noexcept {
+  static_assert(sizeof(E) == sizeof(int32_t), "C API enums are int-sized");
+  int32_t v;
+  std::memcpy(&v, &field, sizeof v);
+  return v;
+}
 
 // (Kept for capi.cpp's exception guard; bakeScene reports cancellation as ErrorCode::Cancelled.)
 struct Cancelled {};

@@ -346,10 +346,11 @@ somm_result somm_encoded_array_build(const somm_flat_array* f, somm_encoding enc
     if (!out) return fail(error, SOMM_ERROR_INVALID_ARGUMENT, "somm_encoded_array_build: array is NULL");
     *out = nullptr;
     if (!f) return fail(error, SOMM_ERROR_INVALID_ARGUMENT, "somm_encoded_array_build: flat is NULL");
-    if (uint32_t(encoding) > uint32_t(SOMM_ENCODING_HYBRID))
+    const int32_t enc = somm::capi::rawEnum(encoding), indexType = somm::capi::rawEnum(f->index_type);
+    if (enc < 0 || enc > int32_t(SOMM_ENCODING_HYBRID))
       return fail(error, SOMM_ERROR_INVALID_ARGUMENT,
-                  "encoding " + std::to_string(int(encoding)) + " is not a somm_encoding");
-    if (f->index_type != SOMM_INDEX_UINT16 && f->index_type != SOMM_INDEX_UINT32)
+                  "encoding " + std::to_string(enc) + " is not a somm_encoding");
+    if (indexType != SOMM_INDEX_UINT16 && indexType != SOMM_INDEX_UINT32)
       return fail(error, SOMM_ERROR_INVALID_ARGUMENT, "flat.index_type must be SOMM_INDEX_UINT16 or _UINT32");
     if ((f->data_size && !f->data) || (f->triangle_count && !f->triangles) || (f->index_count && !f->indices))
       return fail(error, SOMM_ERROR_INVALID_ARGUMENT, "somm_encoded_array_build: a buffer pointer is NULL");

@@ -134,6 +134,11 @@ Result<Document> parseDocument(const std::vector<uint8_t>& bytes, bool binary, c
                     "GLB version " + std::to_string(le32(bytes.data() + 4)) + " (only 2 is supported)");
     const uint64_t total = le32(bytes.data() + 8);
     if (total > bytes.size()) return d.fail(ErrorCode::CorruptFile, "GLB length exceeds the file size");
+    // (A declared length below the 20-byte header made `total - 20` wrap: the JSON chunk length was then never
+    // checked and the parser read past the file.)
+    if (total < 20)
+      return d.fail(ErrorCode::CorruptFile,
+                    "GLB length " + std::to_string(total) + " is less than its headers (20 bytes)");
     const uint64_t jsonLen = le32(bytes.data() + 12);
     if (le32(bytes.data() + 16) != 0x4E4F534Au)
       return d.fail(ErrorCode::CorruptFile, "GLB: the first chunk is not JSON");

@@ -14,6 +14,7 @@
 #include "document.h"
 #include "gltf_internal.h"
 #include "somm/gltf.h"
+#include "somm/io.h"
 
 namespace somm {
 
@@ -62,10 +63,10 @@ Status writeFilesAtomically(const std::vector<std::pair<std::string, const std::
   const mode_t mask = ::umask(0);
   ::umask(mask);
   for (const auto& [path, bytes] : files) {
-    struct stat st;
-    if (::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode)) {
+    // An existing output that is not a regular file (a directory, a FIFO, a device) is refused, never replaced.
+    if (Status s = checkOutputPath(path, {}); !s) {
       cleanup();
-      return makeError(ErrorCode::IoError, path + ": is a directory");
+      return makeError(ErrorCode::IoError, s.error().message);
     }
     std::string tmp = path + ".tmp.XXXXXX";
     const int fd = ::mkstemp(tmp.data());
@@ -249,6 +250,33 @@ Status writeGltfMicromaps(const std::string& outPath, const std::string& scenePa
   auto resolved = [&](const std::string& uri) {
     return (inDir / fs::path(gltfdoc::percentDecode(uri))).lexically_normal();
   };
+  // The .bin written next to a .gltf must not be one of the input's files (its buffers, images, or the scene file
+  // itself): `bake a.gltf -o out.gltf`, with a.gltf's geometry in out.bin, rewrote out.bin and left a.gltf
+  // broken. Writing back into the input itself (outPath = the scene) keeps that buffer as the carrier.
+  if (!outBinary && gltfInput) {
+    struct stat so, si;
+    const bool inPlace = ::stat(outPath.c_str(), &so) == 0 && ::stat(scenePath.c_str(), &si) == 0 &&
+                         so.st_dev == si.st_dev && so.st_ino == si.st_ino;
+    if (!inPlace) {
+      std::vector<std::string> inputs{scenePath};
+      for (const char* kind : {"buffers", "images"}) {
+        if (!root.contains(kind) || !root[kind].is_array()) continue;
+        for (const json& o : root[kind]) {
+          const json* u = gltfint::member(o, "uri");
+          if (u && u->is_string() && !gltfdoc::isDataUri(u->get<std::string>()) &&
+              gltfdoc::isRelativeUri(u->get<std::string>()))
+            inputs.push_back((inDir / fs::path(gltfdoc::percentDecode(u->get<std::string>()))).string());
+        }
+      }
+      for (const std::string& in : inputs)
+        if (absoluteNormal(fs::path(in)) == binPath)
+          return fail(ErrorCode::InvalidArgument,
+                      "its buffer " + escapeName(binPath.string()) +
+                          " is a file of the input scene; refusing to overwrite it");
+      if (Status s = checkOutputPath(binPath.string(), inputs); !s)
+        return fail(ErrorCode::InvalidArgument, "its buffer " + s.error().message);
+    }
+  }
   long carrier = -1;
   if (outBinary) {
     if (!buffers.empty()) carrier = 0;

@@ -75,16 +75,33 @@ bool keepEncoded(tinygltf::Image* image, const int, std::string*, std::string*, 
   return true;
 }
 
-// No shell-style expansion of URIs (tinygltf's default uses wordexp).
-std::string noExpand(const std::string& p, void*) {
-  return p;
+// tinygltf's external files (buffers; images are kept encoded and read again by us) go through these callbacks.
+// tinygltf joins its base directory with the URI and then tries "./URI" in the current directory: an absolute
+// URI ("/dev/zero") became "DIR//dev/zero", was not found there, and was then looked up relative to the current
+// directory ("File not found : /dev/zero", or a file of the caller's directory read instead). So tinygltf gets an
+// empty base directory, every candidate "exists", and the path is resolved here: absolute URIs as they are,
+// relative ones against the glTF's directory only; the read itself reports what is wrong (missing, not a regular
+// file, too large), and that message, naming the file, becomes the load error.
+struct ExternalFiles {
+  const Limits* limits = nullptr;
+  std::filesystem::path dir;  // the glTF's directory
+  std::string error;          // the first failed read: "<path>: <problem>"
+  ErrorCode errorCode = ErrorCode::IoError;
+  std::vector<std::string> read;  // the files read (Scene::inputFiles)
+};
+
+// No shell-style expansion of URIs (tinygltf's default uses wordexp): resolve against the glTF's directory.
+std::string resolveUri(const std::string& p, void* user) {
+  const auto& files = *static_cast<const ExternalFiles*>(user);
+  std::filesystem::path uri(p);
+  if (uri.is_absolute()) return p;
+  if (p.rfind("./", 0) == 0) uri = p.substr(2);  // tinygltf's second candidate: the same file
+  return (files.dir / uri).string();
 }
 
-// tinygltf's FileExists opens the file (a FIFO would block): stat only; readExternal refuses what is not a
-// regular file.
-bool existsNoOpen(const std::string& p, void*) {
-  struct stat st;
-  return ::stat(p.c_str(), &st) == 0;
+// tinygltf's FileExists opens the file (a FIFO would block): the read decides instead.
+bool existsAlways(const std::string&, void*) {
+  return true;
 }
 
 bool isImagePath(const std::string& p) {
@@ -97,15 +114,21 @@ bool isImagePath(const std::string& p) {
 
 // External buffers and images: regular files only, at most the cap of their kind.
 bool readExternal(std::vector<unsigned char>* out, std::string* err, const std::string& path, void* user) {
-  const Limits& limits = *static_cast<const Limits*>(user);
+  auto& files = *static_cast<ExternalFiles*>(user);
   const bool image = isImagePath(path);
-  auto bytes = image ? readRegularFile(path, limits.imageFileBytes, "image", "file-bytes.image")
-                     : readRegularFile(path, limits.bufferFileBytes, "glTF buffer", "file-bytes.buffer");
+  auto bytes = image
+                   ? readRegularFile(path, files.limits->imageFileBytes, "image", "file-bytes.image")
+                   : readRegularFile(path, files.limits->bufferFileBytes, "glTF buffer", "file-bytes.buffer");
   if (!bytes) {
+    if (!image && files.error.empty()) {  // images are read again, with their own errors
+      files.error = "buffer " + bytes.error().message;
+      files.errorCode = bytes.error().code;
+    }
     if (err) *err += bytes.error().message + "\n";
     return false;
   }
   *out = std::move(bytes.value());
+  files.read.push_back(path);
   return true;
 }
 
@@ -354,6 +377,7 @@ Result<std::shared_ptr<const RawImage>> GltfLoader::image(int index, const std::
     if (im.image.empty()) {
       // tinygltf only warns when an external image is missing: try ourselves, for the reason of the failure.
       raw = readImageFile((base / im.uri).string(), opts_.limits, &decoded_);
+      scene_.inputFiles.push_back((base / im.uri).string());
     } else {
       raw = decodeImage(im.image.data(), im.image.size(), opts_.limits, &decoded_);
     }
@@ -755,12 +779,14 @@ Result<Scene> GltfLoader::run(bool binary) {
   }
   tinygltf::TinyGLTF loader;
   loader.SetImageLoader(&keepEncoded, nullptr);
-  tinygltf::FsCallbacks fs{&existsNoOpen, &noExpand, &readExternal, &tinygltf::WriteWholeFile,
-                           const_cast<Limits*>(&opts_.limits)};
+  ExternalFiles files;
+  files.limits = &opts_.limits;
+  files.dir = std::filesystem::path(path_).parent_path();
+  tinygltf::FsCallbacks fs{&existsAlways, &resolveUri, &readExternal, &tinygltf::WriteWholeFile, &files};
   loader.SetFsCallbacks(fs);
   std::string err, warn;
   bool ok = false;
-  const std::string baseDir = std::filesystem::path(path_).parent_path().string();
+  const std::string baseDir;  // resolveUri resolves relative URIs (see ExternalFiles)
   try {
     ok = binary ? loader.LoadBinaryFromMemory(&model_, &err, &warn, bytes.data(), unsigned(bytes.size()),
                                               baseDir)
@@ -773,6 +799,7 @@ Result<Scene> GltfLoader::run(bool binary) {
     ok = false;
   }
   if (!ok) {
+    if (!files.error.empty()) return fail(files.errorCode, oneLine(files.error));
     std::string msg = oneLine(err);
     if (msg.empty()) msg = oneLine(warn);
     if (msg.empty()) msg = "cannot parse glTF";
@@ -787,6 +814,8 @@ Result<Scene> GltfLoader::run(bool binary) {
     if (!supported) return fail(ErrorCode::UnsupportedFormat, "requires the unsupported extension " + ext);
   }
   scene_.sourcePath = path_;
+  scene_.inputFiles.push_back(path_);
+  scene_.inputFiles.insert(scene_.inputFiles.end(), files.read.begin(), files.read.end());
   Status st = loadMaterials();
   if (!st.ok()) return st.error();
   st = loadGeometries();

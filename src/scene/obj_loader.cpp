@@ -81,9 +81,11 @@ class MtlReader : public tinyobj::MaterialReader {
     }
     std::istringstream in(std::string(bytes->begin(), bytes->end()));
     tinyobj::LoadMtl(matMap, materials, &in, warn, err);
+    read.push_back(p.string());
     return true;
   }
   std::string error;
+  std::vector<std::string> read;  // the material libraries read (Scene::inputFiles)
 
  private:
   std::filesystem::path dir_;
@@ -141,6 +143,7 @@ Result<std::shared_ptr<const RawImage>> ObjLoader::image(const std::string& texn
                 "material '" + material + "': texture '" + resolved + "': " + raw.error().message);
   auto sp = std::make_shared<const RawImage>(std::move(raw.value()));
   images_[resolved] = sp;
+  scene_.inputFiles.push_back(resolved);
   return sp;
 }
 
@@ -261,6 +264,8 @@ Result<Scene> ObjLoader::run() {
   }
   splitLines(warn, scene_.warnings);
   scene_.sourcePath = path_;
+  scene_.inputFiles.push_back(path_);
+  scene_.inputFiles.insert(scene_.inputFiles.end(), mtl.read.begin(), mtl.read.end());
   for (const auto& tm : mats) {
     Material m;
     Status st = material(tm, m);

@@ -209,6 +209,128 @@ TEST(BadSommRound2, OutputsAreSafe) {
   }
 }
 
+// `bake IN.gltf -o OUT.gltf` also writes OUT.bin. When OUT.bin was one of IN.gltf's own buffers (IN.gltf written
+// by an earlier bake into OUT.gltf), it was rewritten with the new data appended and the input scene no longer
+// loaded ("File size mismatch"). Now refused, nothing written; a FIFO as OUT.bin is refused too (it was replaced).
+TEST(BadSommRound2, GltfOutputBufferIsNeverAnInput) {
+  if (!testing::hasCommand("bake") || !testing::hasCommand("gen-scene")) GTEST_SKIP();
+  TempDir d;
+  ASSERT_EQ(runGuarded("gen-scene quad --size 16 -o " + quote(d.file("q.glb"))).exitCode, 0);
+  ASSERT_EQ(runGuarded("bake " + quote(d.file("q.glb")) + " -l 2 -o " + quote(d.file("out.gltf"))).exitCode,
+            0);
+  auto r = runGuarded("bake " + quote(d.file("out.gltf")) + " -l 2 -o " + quote(d.file("a.gltf")));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  ASSERT_NE(testing::readFile(d.file("a.gltf")).find("out.bin"), std::string::npos)
+      << "a.gltf should keep its geometry in out.bin";
+  const std::string outGltf = testing::readFile(d.file("out.gltf")),
+                    outBin = testing::readFile(d.file("out.bin"));
+  const auto before = testing::listDir(d.path().string());
+  r = runGuarded("bake " + quote(d.file("a.gltf")) + " -l 3 -o " + quote(d.file("out.gltf")));
+  expectRejected(r, 1, {d.file("out.bin"), "input"}, "bake a.gltf -o out.gltf (out.bin is a.gltf's buffer)");
+  EXPECT_EQ(testing::readFile(d.file("out.bin")), outBin);
+  EXPECT_EQ(testing::readFile(d.file("out.gltf")), outGltf);
+  EXPECT_EQ(testing::listDir(d.path().string()), before);
+  EXPECT_EQ(runGuarded("scene-info " + quote(d.file("a.gltf"))).exitCode, 0);
+  // The same through a symlink named like the output's buffer.
+  ::symlink(d.file("out.bin").c_str(), d.file("b.bin").c_str());
+  r = runGuarded("bake " + quote(d.file("a.gltf")) + " -l 3 -o " + quote(d.file("b.gltf")));
+  expectRejected(r, 1, {"b.bin", "input"}, "bake -o b.gltf, b.bin a symlink to an input buffer");
+  EXPECT_EQ(testing::readFile(d.file("out.bin")), outBin);
+  // A FIFO as the output's buffer.
+  ASSERT_EQ(::mkfifo(d.file("f.bin").c_str(), 0600), 0);
+  r = runGuarded("bake " + quote(d.file("a.gltf")) + " -l 3 -o " + quote(d.file("f.gltf")), "", 20);
+  expectRejected(r, 1, {"f.bin", "FIFO"}, "bake -o f.gltf, f.bin a FIFO");
+  struct stat st;
+  ASSERT_EQ(::stat(d.file("f.bin").c_str(), &st), 0);
+  EXPECT_TRUE(S_ISFIFO(st.st_mode));
+  EXPECT_FALSE(std::filesystem::exists(d.file("f.gltf")));
+}
+
+// An output naming one of the files the scene was read from: the scene's texture, its glTF buffer, an OBJ's
+// material library or texture. `render scene.gltf -o leaf.png` overwrote the scene's own texture and exited 0.
+// Refused with exit 2 before any work; the file is untouched.
+TEST(BadSommRound2, OutputsNeverReplaceSceneFiles) {
+  if (!testing::hasCommand("bake") || !testing::hasCommand("view")) GTEST_SKIP();
+  TempDir d;
+  const std::string src = std::string(SOMM_DATA_DIR) + "/oak-tree/";
+  for (const char* f : {"oaktree.gltf", "oaktree.bin", "oakleaf_light.png", "oakbark.jpg"})
+    testing::writeFile(d.file(f), testing::readFile(src + f));
+  testing::writeFile(d.file("q.obj"),
+                     "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nusemtl "
+                     "leaf\nf 1/1 2/2 3/3\n");
+  testing::writeFile(d.file("m.mtl"), "newmtl leaf\nmap_d oakleaf_light.png\n");
+  const std::string gltf = d.file("oaktree.gltf"), obj = d.file("q.obj");
+  ASSERT_EQ(runGuarded("bake " + quote(gltf) + " -l 2 -o " + quote(d.file("o.somm"))).exitCode, 0);
+  std::vector<std::pair<std::string, std::string>> cases = {
+      {"bake " + quote(gltf) + " -l 2 -o ", d.file("oakleaf_light.png")},
+      {"bake " + quote(gltf) + " -l 2 -o ", d.file("oaktree.bin")},
+      {"bake " + quote(obj) + " -l 2 -o ", d.file("m.mtl")},
+      {"view " + quote(d.file("o.somm")) + " -g 0 -o ", d.file("oakleaf_light.png")},
+      {"view " + quote(d.file("o.somm")) + " -g 0 -o ", d.file("oaktree.bin")},
+  };
+  if (testing::hasCommand("render")) {
+    cases.push_back({"render " + quote(gltf) + " --width 8 --height 8 -o ", d.file("oakleaf_light.png")});
+    cases.push_back({"render " + quote(gltf) + " --width 8 --height 8 -o ", d.file("oakbark.jpg")});
+    cases.push_back({"render " + quote(obj) + " --width 8 --height 8 -o ", d.file("oakleaf_light.png")});
+  }
+  for (const auto& [cmd, target] : cases) {
+    const std::string before = testing::readFile(target);
+    const auto r = runGuarded(cmd + quote(target));
+    expectRejected(r, 2, {target, "is the input"}, cmd + target);
+    EXPECT_EQ(testing::readFile(target), before) << target;
+  }
+  EXPECT_EQ(runGuarded("scene-info " + quote(gltf)).exitCode, 0);
+}
+
+// A GLB whose declared total length is below its 20-byte headers: the micromap reader computed `total - 20` in
+// unsigned arithmetic, so a huge JSON chunk length passed the check and the JSON parser read past the file
+// (ASan: heap-buffer-overflow; found by fuzz_gltf). Every command that opens micromaps refuses it cleanly.
+TEST(BadSommRound2, GlbLengthBelowHeader) {
+  TempDir d;
+  for (uint32_t total : {0u, 12u, 19u}) {
+    std::string glb("glTF", 4);
+    auto u32 = [&](uint32_t v) {
+      for (int i = 0; i < 4; ++i) glb += char((v >> (8 * i)) & 0xffu);
+    };
+    u32(2);
+    u32(total);
+    u32(0x9b073c00u);  // JSON chunk length: far past the file
+    glb += "JSON";
+    glb += R"({"asset":{"version":"2.0"},"extensionsUsed":["EXT_mesh_opacity_micromap"]})";
+    testing::writeFile(d.file("x.glb"), glb);
+    for (const char* cmd : {"info", "export"}) {
+      const std::string extra = std::string(cmd) == "export" ? " --dir " + quote(d.file("out")) : "";
+      const auto r = runGuarded(std::string(cmd) + " " + quote(d.file("x.glb")) + extra);
+      expectRejected(r, 1, {d.file("x.glb"), "less than its headers"},
+                     std::string(cmd) + " on a GLB of declared length " + std::to_string(total));
+    }
+    EXPECT_FALSE(std::filesystem::exists(d.file("out")));
+  }
+}
+
+// gen-scene -o and export --dir naming something that cannot be the output (a device, a FIFO, a regular file as the
+// directory): exit 2 like bake / render / view, before the work (gen-scene built a million-card scene first, then
+// failed with exit 1).
+TEST(BadSommRound2, NonRegularOutputsAreUsageErrors) {
+  if (!testing::hasCommand("gen-scene") || !testing::hasCommand("export")) GTEST_SKIP();
+  TempDir d;
+  auto r = runGuarded("gen-scene leaf-cards --cards 1000000 -o /dev/null");
+  expectRejected(r, 2, {"/dev/null", "character device"}, "gen-scene -o /dev/null");
+  ASSERT_EQ(::mkfifo(d.file("f.glb").c_str(), 0600), 0);
+  r = runGuarded("gen-scene quad -o " + quote(d.file("f.glb")), "", 20);
+  expectRejected(r, 2, {"f.glb", "FIFO"}, "gen-scene -o a FIFO");
+  ASSERT_EQ(runGuarded("gen-scene quad --size 16 -o " + quote(d.file("q.glb"))).exitCode, 0);
+  ASSERT_EQ(runGuarded("bake " + quote(d.file("q.glb")) + " -l 2 -o " + quote(d.file("q.somm"))).exitCode, 0);
+  const std::string somm = testing::readFile(d.file("q.somm"));
+  const auto before = testing::listDir(d.path().string());
+  for (const std::string& dir : {std::string("/dev/null"), d.file("q.somm"), d.file("f.glb")}) {
+    r = runGuarded("export " + quote(d.file("q.somm")) + " --dir " + quote(dir), "", 20);
+    expectRejected(r, 2, {dir, "not a directory"}, "export --dir " + dir);
+  }
+  EXPECT_EQ(testing::readFile(d.file("q.somm")), somm);
+  EXPECT_EQ(testing::listDir(d.path().string()), before);
+}
+
 // Options: threads beyond what oneTBB accepts (65537 crashed inside it), sizes beyond 2^63, NaN, absurd
 // counts that would run out of memory, unknown or malformed --limit.
 TEST(BadSommRound2, OptionRanges) {

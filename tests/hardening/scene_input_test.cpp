@@ -458,7 +458,7 @@ TEST(BadSceneRound2, OnlyRegularFilesAreRead) {
                                 : target;
     j.replace(a, b - a, rel);
     testing::writeFile(d.file("b.gltf"), j);
-    expectLoadFails(d.file("b.gltf"), ErrorCode::CorruptFile, {rel[0] == '/' ? "not found" : "regular file"});
+    expectLoadFails(d.file("b.gltf"), ErrorCode::IoError, {"buffer " + target + ": not a regular file"});
     testing::writeFile(d.file("i.gltf"),
                        replaceOnce(gltf(), R"("uri":"t.png")", "\"uri\":\"" + target + "\""));
     const Result<Scene> s = loadScene(d.file("i.gltf"));
@@ -476,6 +476,52 @@ TEST(BadSceneRound2, OnlyRegularFilesAreRead) {
   }
   const auto r = testing::runGuarded("info " + quote(d.file("fifo")), "", 20);
   testing::expectRejected(r, 1, {d.file("fifo"), "FIFO"}, "info on a FIFO");
+}
+
+// Absolute buffer URIs naming devices were joined to the glTF's directory by tinygltf, not found there, and
+// then looked up in the current directory: "File not found : /dev/zero" (or a file of the current directory was
+// read). Now every URI is resolved once (absolute as is, relative against the glTF's directory) and the read
+// names the file and says what it is.
+TEST(BadSceneRound2, DeviceBufferUrisAreNamed) {
+  TempDir d;
+  testing::writeFile(d.file("t.png"), tinyPng());
+  for (const std::string dev : {"/dev/zero", "/dev/null", "/dev/urandom", "/dev/stdin"}) {
+    std::string j = gltf();
+    const size_t a = j.find("data:application"), b = j.find('"', a);
+    j.replace(a, b - a, dev);
+    testing::writeFile(d.file("dev.gltf"), j);
+    struct stat st;
+    if (dev == "/dev/stdin" && (::stat(dev.c_str(), &st) != 0 || S_ISREG(st.st_mode)))
+      continue;  // this test's stdin is a regular file: nothing to refuse
+    expectLoadFails(d.file("dev.gltf"), ErrorCode::IoError, {"buffer " + dev + ": not a regular file ("});
+    if (dev == "/dev/stdin") continue;  // runGuarded gives the CLI a regular file as stdin
+    const auto r = testing::runGuarded("scene-info " + quote(d.file("dev.gltf")), "", 20);
+    testing::expectRejected(r, 1, {d.file("dev.gltf"), dev, "not a regular file (a character device)"},
+                            "scene-info, buffer " + dev);
+  }
+  // A relative URI is looked up next to the glTF only, never in the current directory.
+  ::mkdir(d.file("sub").c_str(), 0700);
+  testing::writeFile(d.file("sub/t.png"), tinyPng());
+  std::string j = gltf();
+  const size_t a = j.find("data:application"), b = j.find('"', a);
+  j.replace(a, b - a, "cwd.bin");
+  testing::writeFile(d.file("sub/a.gltf"), j);
+  std::string bin(68, '\0');  // the bytes of gltf()'s data URI
+  const float pos[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  std::memcpy(bin.data(), pos, 36);
+  const uint16_t idx[3] = {0, 1, 2};
+  std::memcpy(bin.data() + 60, idx, 6);
+  testing::writeFile(d.file("cwd.bin"), bin);
+  const auto cwd = std::filesystem::current_path();
+  std::filesystem::current_path(d.path());
+  const Result<Scene> s = loadScene(d.file("sub/a.gltf"));
+  std::filesystem::current_path(cwd);
+  ASSERT_FALSE(s.ok()) << "read cwd.bin from the current directory";
+  EXPECT_NE(s.error().message.find("buffer " + d.file("sub/cwd.bin") + ": cannot open"), std::string::npos)
+      << s.error().message;
+  // Next to the glTF it is found and the scene loads.
+  testing::writeFile(d.file("sub/cwd.bin"), bin);
+  EXPECT_TRUE(loadScene(d.file("sub/a.gltf")).ok());
 }
 
 // A 1 KB node DAG expanded to 1.1 GB of instances; a million instances of one mesh. Refused before the

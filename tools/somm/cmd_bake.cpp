@@ -144,6 +144,10 @@ int run(const Options& o) {
     printError("bake", scene.error().message);
     return kExitFailure;
   }
+  // Nor any file the scene was read from (its buffers, textures, material libraries), before the bake.
+  if (!o.output.empty())
+    if (somm::Status s = somm::checkOutputPath(o.output, scene->inputFiles); !s)
+      return usage(s.error().message);
   if (somm::Status s = checkBakeWork(*scene, bo, lo.limits); !s) {
     printError("bake", s.error().message);
     return kExitFailure;

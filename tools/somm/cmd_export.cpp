@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: MIT
 // somm export FILE.somm --dir D: per OMM array the raw buffers of vkCmdBuildMicromapsEXT / a DXR OMM array
 // build, per geometry its OMM index buffer into its array (docs/cli.md).
+#include <sys/stat.h>
+
 #include <filesystem>
 #include <string>
 #include <system_error>
@@ -70,6 +72,15 @@ std::vector<uint8_t> textBytes(const nlohmann::json& j) {
 
 int run(const Options& o) {
   using namespace somm::cli;
+  // --dir naming something that is not a directory (/dev/null, a file, a FIFO) is a usage error, found before the
+  // input is read.
+  {
+    struct stat st;
+    if (::stat(o.dir.c_str(), &st) == 0 && !S_ISDIR(st.st_mode)) {
+      printError("export", somm::escapeName(o.dir) + ": exists and is not a directory");
+      return kExitUsage;
+    }
+  }
   auto file = somm::readMicromapFile(o.path);  // .somm or glTF (EXT_mesh_opacity_micromap)
   if (!file) {
     printError("export", file.error().message);

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "command.h"
+#include "somm/io.h"
 #include "somm/procedural.h"
 #include "somm/scene.h"
 
@@ -26,6 +27,12 @@ struct Options {
 
 int run(const Options& o) {
   using namespace somm::cli;
+  // An output that exists and is not a regular file (/dev/null, a FIFO, a directory) is a usage error, found
+  // before the scene is built (a million cards take seconds).
+  if (somm::Status s = somm::checkOutputPath(o.out, {}); !s) {
+    printError("gen-scene", s.error().message);
+    return kExitUsage;
+  }
   somm::Scene scene;
   if (o.kind == "leaf-cards") {
     scene = somm::makeLeafCardScene(o.cards, o.seed, o.size ? o.size : 512);

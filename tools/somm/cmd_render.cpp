@@ -37,6 +37,12 @@ int run(const Options& o) {
   int code = kExitOk;
   auto p = prepareTrace("render", o.trace, needMicromaps, code);
   if (!p) return code;
+  // Nor any file the scene was read from (`render scene.gltf -o leaf.png` overwrote the scene's own texture).
+  if (p->scene)
+    if (somm::Status s = somm::checkOutputPath(o.output, p->scene->inputFiles); !s) {
+      printError("render", s.error().message);
+      return kExitUsage;
+    }
   if (spec->kind == somm::MethodKind::Bitmask && o.trace.omm.empty() && o.trace.texelsPerMicroTri == 0)
     p->micromaps.bitmaskLevel = std::min(o.trace.level, 10u);
   auto tracer = somm::makeTracer(p->world, *spec, p->micromaps);

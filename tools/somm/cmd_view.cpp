@@ -102,6 +102,11 @@ int run(const Options& o) {
                            (o.scene.empty() ? " (the scene named in " + o.path + "; use --scene)" : ""));
     return kExitFailure;
   }
+  // Nor any file the scene was read from (`view F.somm -o leaf.png` over the scene's own texture).
+  if (somm::Status s = somm::checkOutputPath(o.output, scene->inputFiles); !s) {
+    printError("view", s.error().message);
+    return kExitUsage;
+  }
   if (scene->geometries.size() != f.geometries.size() ||
       scene->geometries[o.geometry].triangleCount() != triangleCount) {
     printError("view", scenePath + " does not match " + o.path + ": geometry " + std::to_string(o.geometry) +

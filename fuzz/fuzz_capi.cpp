@@ -657,7 +657,7 @@ void bakeCase(FuzzedDataProvider& in) {
     f.indices = idx.n ? idx.data() : nullptr;
     f.index_type = gi.index_type;
     f.index_count = gi.triangle_count;
-    for (int enc = SOMM_ENCODING_FLAT; enc <= SOMM_ENCODING_HYBRID; ++enc) {
+    for (int enc = SOMM_ENCODING_FLAT; enc <= SOMM_ENCODING_SDAG; ++enc) {
       somm_encoded_array* a = nullptr;
       const somm_result br = somm_encoded_array_build(&f, somm_encoding(enc), &a, &e);
       checkError(br, e);
@@ -697,10 +697,11 @@ void parseCase(FuzzedDataProvider& in) {
 void buildCase(FuzzedDataProvider& in) {
   bool valid = true, ok = true;
   somm_encoding enc;  // written by pickEnum, never read
-  const int encoding = pickEnum(in,
-                                {SOMM_ENCODING_FLAT, SOMM_ENCODING_DFS, SOMM_ENCODING_DFS_FAST,
-                                 SOMM_ENCODING_RANK, SOMM_ENCODING_HYBRID},
-                                ok, enc);
+  const int encoding =
+      pickEnum(in,
+               {SOMM_ENCODING_FLAT, SOMM_ENCODING_DFS, SOMM_ENCODING_DFS_FAST, SOMM_ENCODING_RANK,
+                SOMM_ENCODING_HYBRID, SOMM_ENCODING_CSM, SOMM_ENCODING_SDAG},
+               ok, enc);
   valid &= ok;
   somm_flat_array f = somm_flat_array_default();
   const int indexType = pickEnum(in, {SOMM_INDEX_UINT32, SOMM_INDEX_UINT16}, ok, f.index_type);

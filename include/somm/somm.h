@@ -283,7 +283,9 @@ typedef enum somm_encoding {
   SOMM_ENCODING_DFS = 1,
   SOMM_ENCODING_DFS_FAST = 2,
   SOMM_ENCODING_RANK = 3,
-  SOMM_ENCODING_HYBRID = 4
+  SOMM_ENCODING_HYBRID = 4,
+  SOMM_ENCODING_CSM = 5, /* common-subtree-merged DAG (Chernaik et al., HPG 2026) */
+  SOMM_ENCODING_SDAG = 6 /* somm's succinct DAG shared across the array */
 } somm_encoding;
 
 /* The spec buffers of one OMM array, as the caller holds them (e.g. copied from a bake). */

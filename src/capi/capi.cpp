@@ -347,7 +347,7 @@ somm_result somm_encoded_array_build(const somm_flat_array* f, somm_encoding enc
     *out = nullptr;
     if (!f) return fail(error, SOMM_ERROR_INVALID_ARGUMENT, "somm_encoded_array_build: flat is NULL");
     const int32_t enc = somm::capi::rawEnum(encoding), indexType = somm::capi::rawEnum(f->index_type);
-    if (enc < 0 || enc > int32_t(SOMM_ENCODING_HYBRID))
+    if (enc < 0 || enc > int32_t(SOMM_ENCODING_SDAG))
       return fail(error, SOMM_ERROR_INVALID_ARGUMENT,
                   "encoding " + std::to_string(enc) + " is not a somm_encoding");
     if (indexType != SOMM_INDEX_UINT16 && indexType != SOMM_INDEX_UINT32)

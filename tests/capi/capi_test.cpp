@@ -454,7 +454,7 @@ TEST(CApi, EncodedArrays) {
   flat.index_type = buf.indexType;
   flat.index_count = uint32_t(buf.indices.size() / size_t(buf.indexType));
   for (somm_encoding enc : {SOMM_ENCODING_FLAT, SOMM_ENCODING_DFS, SOMM_ENCODING_DFS_FAST, SOMM_ENCODING_RANK,
-                            SOMM_ENCODING_HYBRID}) {
+                            SOMM_ENCODING_HYBRID, SOMM_ENCODING_CSM, SOMM_ENCODING_SDAG}) {
     somm_encoded_array* a = nullptr;
     somm_error e;
     ASSERT_EQ(somm_encoded_array_build(&flat, enc, &a, &e), SOMM_OK) << e.message;

@@ -976,8 +976,8 @@ uint32_t getU32(const uint8_t* p) {
   return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24;
 }
 
-constexpr uint32_t kMagic = 0x434e4553;  // "SENC"
-constexpr uint8_t kVersion = 1;          // arrays without the sdag directory
+constexpr uint32_t kMagic = 0x434e4553;   // "SENC"
+constexpr uint8_t kVersion = 1;           // arrays without the sdag directory
 constexpr uint8_t kVersionDirectory = 2;  // arrays with it (the 80-byte directory with reference tiers)
 
 }  // namespace
@@ -1107,6 +1107,7 @@ Result<EncodedArray> EncodedArray::build(const OmmArray& array, Encoding encodin
   if (encoding == Encoding::Csm) {
     encode::DagTables tables;
     std::vector<encode::DagRoot> roots;
+    roots.reserve(maps.size());
     for (const Micromap& m : maps) roots.push_back(encode::internMap(m, tables));
     data = encode::emitCsm(tables, roots, offsets);
     kinds.assign(maps.size(), encode::DagMapOut{MapKind::Csm, {}});
@@ -1115,6 +1116,7 @@ Result<EncodedArray> EncodedArray::build(const OmmArray& array, Encoding encodin
     if (encoding == Encoding::Sdag && best.data.size() > encode::kSdagDirectoryBytes + flatTotal) {
       // Cannot happen with the per-map choice unless sharing shifted; the bound holds regardless.
       std::vector<encode::DagRoot> roots;
+      roots.reserve(maps.size());
       for (const Micromap& m : maps) roots.push_back(encode::DagRoot{m.level(), m.format()});
       best.kinds = blobKinds(maps, Encoding::Flat);
       best.dir = {};

@@ -94,7 +94,7 @@ TEST(BadCapi, OutOfRangeEnumValuesAreInvalidArguments) {
   const uint32_t index = 0;
   // (The encoding is passed by value: C++ can only pass values within the enumerators' range 0..7; a C caller
   // can pass any int, which the library reads as an int.)
-  for (int v : {5, 6, 7}) {
+  for (int v : {7}) {  // 5 and 6 are csm and sdag
     SCOPED_TRACE(v);
     somm_flat_array f = somm_flat_array_default();
     f.data = data;

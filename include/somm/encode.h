@@ -177,26 +177,6 @@ inline State flatState(const uint8_t* blob, uint32_t /*level*/, Format f, uint32
   return readPackedState(blob, f, index);
 }
 
-// The paper's lookup: descend; at an internal node skip the earlier sibling subtrees bit by bit, counting:
-// each bit consumes one pending node, a 1 adds four, a 0 is a leaf.
-inline State dfsState(const uint8_t* blob, uint32_t level, Format f, uint32_t index) noexcept {
-  const uint32_t w = countFieldBits(level);
-  const uint64_t internal = w ? getBits(blob, 0, w) : 0;
-  const uint8_t* t = blob + dfsHeaderBytes(level);
-  uint64_t pos = 0, leaf = 0;
-  for (uint32_t d = 0; d < level; ++d) {
-    if (!getBit(t, pos)) break;
-    ++pos;
-    uint64_t need = digitAt(index, level, d);
-    while (need != 0) {
-      const uint32_t b = getBit(t, pos++);
-      need = need - 1 + 4 * b;
-      leaf += 1 - b;
-    }
-  }
-  return getValue(t, 4 * internal + 1, f, leaf);
-}
-
 // For the word-at-a-time skip: kSkipEnd[n-1][b] is the bit (1..8) of byte b (LSB first) at which a pending
 // count of n (1..8) reaches zero — each 1 adds three, each 0 removes one — or 0 if it stays positive over all
 // 8 bits. A count above 8 cannot reach zero within a byte.
@@ -216,10 +196,13 @@ inline constexpr auto kSkipEnd = [] {
   return t;
 }();
 
-// Same bits; bit steps up to a byte boundary, then a whole 64-bit word at once (popcount) at word boundaries
-// when the pending count exceeds the word's zeros — each 0 lowers the count by one, so it cannot reach zero
-// inside — and otherwise a byte at a time (kSkipEnd finds where the skip ends inside the last byte).
-inline State dfsFastState(const uint8_t* blob, uint32_t level, Format f, uint32_t index) noexcept {
+// The paper's lookup (dfsState): descend; at an internal node skip the earlier sibling subtrees bit by bit,
+// counting: each bit consumes one pending node, a 1 adds four, a 0 is a leaf. dfsFastState walks the same bits, but
+// after bit steps up to a byte boundary it takes a whole 64-bit word at once (popcount) at word boundaries when the
+// pending count exceeds the word's zeros — each 0 lowers the count by one, so it cannot reach zero inside — and
+// otherwise a byte at a time (kSkipEnd finds where the skip ends inside the last byte).
+template <bool Fast>
+inline State dfsWalk(const uint8_t* blob, uint32_t level, Format f, uint32_t index) noexcept {
   const uint32_t w = countFieldBits(level);
   const uint64_t internal = w ? getBits(blob, 0, w) : 0;
   const uint8_t* t = blob + dfsHeaderBytes(level);
@@ -228,37 +211,45 @@ inline State dfsFastState(const uint8_t* blob, uint32_t level, Format f, uint32_
     if (!getBit(t, pos)) break;
     ++pos;
     uint64_t need = digitAt(index, level, d);
-    while (need != 0 && (pos & 7u) != 0) {
+    while (need != 0 && (!Fast || (pos & 7u) != 0)) {
       const uint32_t b = getBit(t, pos++);
       need = need - 1 + 4 * b;
       leaf += 1 - b;
     }
-    while (need != 0) {
-      if ((pos & 63u) == 0) {
-        const uint32_t ones = popcount64(load64(t + (pos >> 3)));
-        if (need > 64u - ones) {
-          need = need + 4 * ones - 64;
-          leaf += 64 - ones;
-          pos += 64;
-          continue;
+    if constexpr (Fast) {
+      while (need != 0) {
+        if ((pos & 63u) == 0) {
+          const uint32_t ones = popcount64(load64(t + (pos >> 3)));
+          if (need > 64u - ones) {
+            need = need + 4 * ones - 64;
+            leaf += 64 - ones;
+            pos += 64;
+            continue;
+          }
         }
-      }
-      const uint32_t byte = t[pos >> 3];
-      if (need <= 8) {
-        const uint32_t end = kSkipEnd[need - 1][byte];
-        if (end != 0) {
-          leaf += end - kBytePopcount[byte & ((1u << end) - 1u)];
-          pos += end;
-          break;
+        const uint32_t byte = t[pos >> 3];
+        if (need <= 8) {
+          const uint32_t end = kSkipEnd[need - 1][byte];
+          if (end != 0) {
+            leaf += end - kBytePopcount[byte & ((1u << end) - 1u)];
+            pos += end;
+            break;
+          }
         }
+        const uint32_t p = kBytePopcount[byte];
+        need = need + 4 * p - 8;
+        leaf += 8 - p;
+        pos += 8;
       }
-      const uint32_t p = kBytePopcount[byte];
-      need = need + 4 * p - 8;
-      leaf += 8 - p;
-      pos += 8;
     }
   }
   return getValue(t, 4 * internal + 1, f, leaf);
+}
+inline State dfsState(const uint8_t* blob, uint32_t level, Format f, uint32_t index) noexcept {
+  return dfsWalk<false>(blob, level, f, index);
+}
+inline State dfsFastState(const uint8_t* blob, uint32_t level, Format f, uint32_t index) noexcept {
+  return dfsWalk<true>(blob, level, f, index);
 }
 
 // Level-order tree: flag bit x (1 = internal) for nodes above the last level, children of x at 1 +

@@ -4,14 +4,17 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_pipeline.h>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <string>
+#include <thread>
 
 namespace somm {
 
@@ -902,7 +905,6 @@ Status bakePass(const CoreInputs& ci, const std::vector<std::vector<uint8_t>>& l
   OmmArrayBuilder builder;
   std::vector<int32_t> jobIndex(jobs.size(), 0);
   std::vector<uint32_t> jobUnknown(jobs.size(), 0);
-  std::vector<Baked> slots;
   out.geometries.assign(in.geometryCount, GeometryBake{});
   out.classifiedTriangles = jobs.size();
   size_t cursor = 0;
@@ -943,37 +945,66 @@ Status bakePass(const CoreInputs& ci, const std::vector<std::vector<uint8_t>>& l
       }
     }
   };
-  uint32_t j0 = 0;
+  // A pipeline over all jobs: batches are handed out in job order, classified in parallel, and interned in job order
+  // (= order of first appearance, as a per-triangle builder would store them) — no barrier, so a slow job only
+  // delays the interning of later batches while the other threads go on. At most `tokens` batches (each bounded in
+  // count and map bytes) are alive; batch k reuses ring slot k mod tokens, free since batch k − tokens has left the
+  // last stage.
   const uint32_t nj = uint32_t(jobs.size());
-  while (j0 < nj) {
-    uint32_t j1 = j0;
-    uint64_t bytes = 0;
-    while (j1 < nj && j1 - j0 < 4096 && bytes < (uint64_t(64) << 20))
-      bytes += micromapDataBytes(jobs[j1++].level, o.format);
-    if (slots.size() < j1 - j0) slots.resize(j1 - j0);  // maps are kept for reuse by the next chunk
-    arena.execute([&] {
-      tbb::parallel_for(tbb::blocked_range<uint32_t>(j0, j1, 4), [&](const tbb::blocked_range<uint32_t>& r) {
-        for (uint32_t i = r.begin(); i != r.end(); ++i) {
-          const Job& j = jobs[i];
-          Prepared p;
-          std::copy(j.X, j.X + 3, p.X);
-          std::copy(j.Y, j.Y + 3, p.Y);
-          p.margin = j.margin;
-          classify(*masks[j.mask], p, j.level, o.format, o.unknownAs, slots[i - j0]);
-        }
-      });
-    });
-    // Maps are stored in job order = order of first appearance, as a per-triangle builder would store them.
-    for (uint32_t i = j0; i < j1; ++i) {
-      const Baked& b = slots[i - j0];
-      jobUnknown[i] = uint32_t(b.unknown);
-      jobIndex[i] = b.uniform ? specialIndexFor(*b.uniform) : builder.intern(b.map);
-    }
-    emit(j1);
-    j0 = j1;
-    if (o.progress && !o.progress(progressBase + progressSpan * double(j0) / double(nj)))
-      return makeError(ErrorCode::Cancelled, "bake cancelled");
-  }
+  const size_t tokens = size_t(std::max(4, 32 * arena.max_concurrency()));
+  const uint64_t batchBytes = std::max<uint64_t>((uint64_t(64) << 20) / tokens, 1);
+  constexpr uint32_t kBatchJobs = 16;
+  struct Batch {
+    uint32_t j0 = 0, j1 = 0;
+    std::vector<Baked> slots;  // maps are kept for reuse by a later batch
+  };
+  std::vector<Batch> ring(std::max<size_t>(1, std::min<size_t>(tokens, nj)));
+  uint32_t next = 0;
+  size_t issued = 0;
+  std::atomic<bool> cancelled{false};
+  const std::thread::id caller = std::this_thread::get_id();
+  arena.execute([&] {
+    tbb::parallel_pipeline(
+        ring.size(),
+        tbb::make_filter<void,
+                         Batch*>(tbb::filter_mode::serial_in_order, [&](tbb::flow_control& fc) -> Batch* {
+          if (next >= nj || cancelled.load(std::memory_order_relaxed)) {
+            fc.stop();
+            return nullptr;
+          }
+          Batch* b = &ring[issued++ % ring.size()];
+          b->j0 = next;
+          uint64_t bytes = 0;
+          while (next < nj && next - b->j0 < kBatchJobs && bytes < batchBytes)
+            bytes += micromapDataBytes(jobs[next++].level, o.format);
+          b->j1 = next;
+          if (b->slots.size() < b->j1 - b->j0) b->slots.resize(b->j1 - b->j0);
+          return b;
+        }) & tbb::make_filter<Batch*, Batch*>(tbb::filter_mode::parallel, [&](Batch* b) {
+          for (uint32_t i = b->j0; i != b->j1; ++i) {
+            const Job& j = jobs[i];
+            Prepared p;
+            std::copy(j.X, j.X + 3, p.X);
+            std::copy(j.Y, j.Y + 3, p.Y);
+            p.margin = j.margin;
+            classify(*masks[j.mask], p, j.level, o.format, o.unknownAs, b->slots[i - b->j0]);
+          }
+          return b;
+        }) & tbb::make_filter<Batch*, void>(tbb::filter_mode::serial_in_order, [&](Batch* b) {
+          for (uint32_t i = b->j0; i < b->j1; ++i) {
+            const Baked& r = b->slots[i - b->j0];
+            jobUnknown[i] = uint32_t(r.unknown);
+            jobIndex[i] = r.uniform ? specialIndexFor(*r.uniform) : builder.intern(r.map);
+          }
+          emit(b->j1);
+          // The progress callback runs on the calling thread only (when it runs this stage).
+          if (o.progress && std::this_thread::get_id() == caller &&
+              !o.progress(progressBase + progressSpan * double(b->j1) / double(nj)))
+            cancelled.store(true, std::memory_order_relaxed);
+        }));
+  });
+  if (cancelled.load() || (o.progress && !o.progress(progressBase + progressSpan)))
+    return makeError(ErrorCode::Cancelled, "bake cancelled");
   emit(UINT32_MAX & ~kSpecialBit);
   assert(cursor == refs.size());
   OmmArray array = builder.finish();

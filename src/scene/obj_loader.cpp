@@ -7,13 +7,16 @@
 // map_Kd when it has one, else none (opaque; the dissolve `d` is ignored). Textures repeat unless `-clamp
 // on`; filter linear; cutoff 0.5. OBJ's v = 0 is the bottom image row, so image rows are flipped on load and
 // UVs are kept as they are.
+#include <tbb/parallel_for.h>
 #include <tiny_obj_loader.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <map>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <unordered_map>
 
@@ -108,6 +111,17 @@ class ObjLoader {
   std::filesystem::path dir_;
   Scene scene_;
   std::map<std::string, std::shared_ptr<const RawImage>> images_;
+  // Every texture file the materials name, decoded in parallel before the materials are read in order; image()
+  // takes its result from here (the same result a read in order would give).
+  std::map<std::string, Result<RawImage>> decoded_;
+  void prefetchImages(const std::vector<tinyobj::material_t>& mats);
+  Result<RawImage> readImage(const std::string& path) {
+    const auto it = decoded_.find(path);
+    if (it == decoded_.end()) return readImageFile(path);
+    Result<RawImage> r = std::move(it->second);
+    decoded_.erase(it);
+    return r;
+  }
   // Converted images, shared by every material that uses the same file (and channel): loaded once per path.
   std::map<std::pair<std::string, int>, std::shared_ptr<const AlphaTexture>> alphas_;
   std::map<std::string, std::shared_ptr<const ColorImage>> colors_;
@@ -125,14 +139,14 @@ Result<std::shared_ptr<const RawImage>> ObjLoader::image(const std::string& texn
   resolved = p.string();
   auto it = images_.find(resolved);
   if (it != images_.end()) return it->second;
-  Result<RawImage> raw = readImageFile(resolved);
+  Result<RawImage> raw = readImage(resolved);
   if (!raw.ok() && raw.error().code == ErrorCode::IoError && texname.find('\\') != std::string::npos) {
     std::string alt = texname;
     for (char& c : alt)
       if (c == '\\') c = '/';
     std::filesystem::path q(alt);
     if (q.is_relative()) q = dir_ / q;
-    Result<RawImage> raw2 = readImageFile(q.string());
+    Result<RawImage> raw2 = readImage(q.string());
     if (raw2.ok()) {
       raw = std::move(raw2);
       resolved = q.string();
@@ -145,6 +159,36 @@ Result<std::shared_ptr<const RawImage>> ObjLoader::image(const std::string& texn
   images_[resolved] = sp;
   scene_.inputFiles.push_back(resolved);
   return sp;
+}
+
+void ObjLoader::prefetchImages(const std::vector<tinyobj::material_t>& mats) {
+  std::vector<std::string> paths;
+  auto add = [&](const std::string& texname) {
+    if (texname.empty()) return;
+    std::filesystem::path p(texname);
+    if (p.is_relative()) p = dir_ / p;
+    paths.push_back(p.string());
+    if (texname.find('\\') != std::string::npos) {  // image()'s fallback: backslashes as separators
+      std::string alt = texname;
+      for (char& c : alt)
+        if (c == '\\') c = '/';
+      std::filesystem::path q(alt);
+      if (q.is_relative()) q = dir_ / q;
+      paths.push_back(q.string());
+    }
+  };
+  for (const tinyobj::material_t& tm : mats) {
+    add(tm.diffuse_texname);
+    add(tm.alpha_texname);
+  }
+  std::sort(paths.begin(), paths.end());
+  paths.erase(std::unique(paths.begin(), paths.end()), paths.end());
+  if (paths.size() < 2) return;
+  std::vector<std::optional<Result<RawImage>>> results(paths.size());
+  tbb::parallel_for(
+      size_t(0), paths.size(), [&](size_t i) { results[i].emplace(readImageFile(paths[i])); },
+      tbb::simple_partitioner());
+  for (size_t i = 0; i < paths.size(); ++i) decoded_.emplace(paths[i], std::move(*results[i]));
 }
 
 // Image formats that cannot store an alpha channel (by extension): a missing one cannot change the alpha test.
@@ -266,6 +310,7 @@ Result<Scene> ObjLoader::run() {
   scene_.sourcePath = path_;
   scene_.inputFiles.push_back(path_);
   scene_.inputFiles.insert(scene_.inputFiles.end(), mtl.read.begin(), mtl.read.end());
+  prefetchImages(mats);
   for (const auto& tm : mats) {
     Material m;
     Status st = material(tm, m);
@@ -273,6 +318,7 @@ Result<Scene> ObjLoader::run() {
     scene_.materials.push_back(std::move(m));
   }
   images_.clear();
+  decoded_.clear();
   int defaultMaterial = -1;
   const size_t nv = attrib.vertices.size() / 3, nt = attrib.texcoords.size() / 2;
 

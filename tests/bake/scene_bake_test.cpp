@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <random>
+#include <thread>
 
 #include "bake/bake_test_util.h"
 #include "somm/bake.h"
@@ -297,6 +298,28 @@ TEST(BakeScene, ProgressCanCancel) {
   ASSERT_FALSE(seen.empty());
   EXPECT_TRUE(std::is_sorted(seen.begin(), seen.end()));
   EXPECT_EQ(seen.back(), 1.0);
+  o.progress = [](double) { return false; };
+  auto r = bakeScene(s, o);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, ErrorCode::Cancelled);
+}
+
+// The pool hands the progress callback to the calling thread only, with any thread count.
+TEST(BakeScene, ProgressRunsOnTheCallingThread) {
+  const Scene s = sharedScene();
+  BakeOptions o;
+  o.level = 5;
+  o.threads = 2;
+  const std::thread::id caller = std::this_thread::get_id();
+  int calls = 0, elsewhere = 0;
+  o.progress = [&](double) {
+    ++calls;
+    if (std::this_thread::get_id() != caller) ++elsewhere;
+  };
+  ASSERT_TRUE(bakeScene(s, o).ok());
+  EXPECT_GE(calls, 1);
+  EXPECT_EQ(elsewhere, 0);
+  // Cancelled with two threads too.
   o.progress = [](double) { return false; };
   auto r = bakeScene(s, o);
   ASSERT_FALSE(r.ok());

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 // somm bake SCENE -o OUT.somm [...]: conservative OMM baking of every geometry of a glTF / OBJ scene into a
 // .somm file.
+#include <tbb/global_control.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -132,6 +133,10 @@ int run(const Options& o) {
   bo.maxBytes = o.maxBytes;
   bo.threads = o.threads;
   if (somm::Status s = somm::validateBakeOptions(bo); !s) return usage(flagNames(s.error().message));
+
+  // -j bounds every stage (the loader decodes images in parallel, the bake runs its pool).
+  std::optional<tbb::global_control> threadCap;
+  if (o.threads) threadCap.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
 
   // ---- scene ----
   somm::LoadOptions lo;

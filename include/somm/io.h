@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "somm/result.h"
@@ -25,6 +26,9 @@ Result<std::vector<uint8_t>> readRegularFile(const std::string& path, uint64_t m
 // a device, a directory); a symlink at path is replaced, its target never written. On failure nothing is left
 // behind and an existing path is untouched.
 Status writeFileAtomically(const std::string& path, const uint8_t* bytes, size_t size);
+// The same, of the concatenation of `count` byte ranges {data, size} (written in order, never copied).
+Status writeFileAtomically(const std::string& path, const std::pair<const uint8_t*, size_t>* pieces,
+                           size_t count);
 
 // InvalidArgument when `output` names the same file as one of `inputs` (same device and inode, or the same
 // path when it does not exist yet) or exists and is not a regular file. Call before reading the inputs.

@@ -17,11 +17,7 @@ Result<std::vector<uint8_t>> readWholeFile(const std::string& path) {
   return readRegularFile(path, defaultLimits().sommFileBytes, "file", "file-bytes.somm");
 }
 
-Status writeSommFile(const std::string& path, const SommFile& file) {
-  auto bytes = serializeSomm(file);
-  if (!bytes) return makeError(bytes.error().code, path + ": not written: " + bytes.error().message);
-  return writeFileAtomically(path, *bytes);
-}
+// writeSommFile is in somm_file.cpp: it writes the arrays' bytes from the SommFile itself, without a copy.
 
 Result<SommFile> readSommFile(const std::string& path) {
   auto bytes = readWholeFile(path);

@@ -14,6 +14,10 @@
 #include <limits>
 #include <span>
 #include <string>
+#include <utility>
+#include <vector>
+
+#include "somm/io.h"
 
 namespace somm {
 
@@ -61,6 +65,51 @@ class Writer {
   void patchU64(size_t at, uint64_t v) {
     for (int i = 0; i < 8; ++i) out[at + size_t(i)] = uint8_t(v >> (8 * i));
   }
+
+  // With `refs`, large caller-owned byte ranges are referenced, not copied: the file is the sequence of
+  // segments (own bytes of `out` or external ranges). Offsets into `out` (patchU64, Chunk::own) stay own
+  // offsets; `pos()` is the logical file offset.
+  struct Segment {
+    size_t own = 0, size = 0;
+    const uint8_t* external = nullptr;  // nullptr: out[own, own + size)
+  };
+  bool refs = false;
+  std::vector<Segment> segments;
+  size_t pos() const { return out.size() + externalBytes_; }
+  void ref(std::span<const uint8_t> b) {
+    if (!refs) return bytes(b);
+    if (b.empty()) return;
+    flush();
+    segments.push_back(Segment{0, b.size(), b.data()});
+    externalBytes_ += b.size();
+  }
+  void flush() {
+    if (out.size() > mark_) segments.push_back(Segment{mark_, out.size() - mark_, nullptr});
+    mark_ = out.size();
+  }
+  // XXH3 of the logical bytes [from, pos()) with `seed`.
+  uint64_t hashFrom(size_t from, uint64_t seed) {
+    if (!refs) return XXH3_64bits_withSeed(out.data() + from, out.size() - from, seed);
+    flush();
+    XXH3_state_t* st = XXH3_createState();
+    XXH3_64bits_reset_withSeed(st, seed);
+    size_t at = 0;
+    for (const Segment& g : segments) {
+      const size_t end = at + g.size;
+      if (end > from) {
+        const size_t skip = from > at ? from - at : 0;
+        const uint8_t* p = g.external ? g.external : out.data() + g.own;
+        XXH3_64bits_update(st, p + skip, g.size - skip);
+      }
+      at = end;
+    }
+    const uint64_t h = XXH3_64bits_digest(st);
+    XXH3_freeState(st);
+    return h;
+  }
+
+ private:
+  size_t mark_ = 0, externalBytes_ = 0;
 };
 
 uint64_t loadU64(const uint8_t* p) {
@@ -89,7 +138,29 @@ void putChunk(Writer& w, uint32_t type, uint32_t geometry, std::span<const uint8
   w.bytes(payload);
   w.patchU64(at + 16,
              chunkChecksum(w.out.data() + at, w.out.data() + at + kChunkHeaderBytes, payload.size()));
-  while (w.out.size() % 8) w.u8(0);
+  while (w.pos() % 8) w.u8(0);
+}
+
+// The same chunk with its payload written into w in place (no payload copy): openChunk, the payload, closeChunk.
+struct OpenChunk {
+  size_t own, logical;  // the header's offset in w.out and in the file
+};
+
+OpenChunk openChunk(Writer& w, uint32_t type, uint32_t geometry) {
+  const OpenChunk c{w.out.size(), w.pos()};
+  w.u32(type);
+  w.u32(geometry);
+  w.u64(0);  // payload size, patched by closeChunk
+  w.u64(0);  // checksum, patched by closeChunk
+  return c;
+}
+
+// As chunkChecksum, over the payload written since openChunk (own or referenced bytes).
+void closeChunk(Writer& w, OpenChunk c) {
+  const size_t size = w.pos() - c.logical - kChunkHeaderBytes;
+  w.patchU64(c.own + 8, size);
+  w.patchU64(c.own + 16, w.hashFrom(c.logical + kChunkHeaderBytes, XXH3_64bits(w.out.data() + c.own, 16)));
+  while (w.pos() % 8) w.u8(0);
 }
 
 std::string hex(uint64_t v) {
@@ -404,7 +475,10 @@ Status validateOmmArray(const OmmArray& a, std::string_view whatView) {
   return Ok{};
 }
 
-Result<std::vector<uint8_t>> serializeSomm(const SommFile& f) {
+namespace {
+
+// The file into w (w.refs: the arrays' and encodings' bytes referenced, not copied).
+Status serializeInto(const SommFile& f, Writer& w) {
   auto longString = [](const std::string& s) { return s.size() > kMaxStringBytes; };
   if (longString(f.sourcePath) || longString(f.toolVersion))
     return makeError(ErrorCode::LimitExceeded, "source path or tool version longer than 65536 bytes");
@@ -414,7 +488,6 @@ Result<std::vector<uint8_t>> serializeSomm(const SommFile& f) {
                        "bake option '" + k.substr(0, 40) + "' longer than 65536 bytes");
   if (Status s = checkFile(f); !s) return s.error();
 
-  Writer w;
   w.bytes(kMagic);
   w.u32(kSommFileVersion);
   w.u32(0);  // flags
@@ -458,42 +531,72 @@ Result<std::vector<uint8_t>> serializeSomm(const SommFile& f) {
     putChunk(w, kGeom, uint32_t(gi), geom.out);
   }
 
+  // The arrays' chunks are written in place, into a buffer reserved once: the file's bytes are the only copy of the
+  // micromap data made (a bake's peak memory holds the data twice at most while writing).
+  auto padded = [](size_t n) { return (n + 7) & ~size_t(7); };
+  size_t total = w.out.size() + kChunkHeaderBytes;  // + the end chunk
   for (size_t ai = 0; ai < f.micromaps.arrays.size(); ++ai) {
     const OmmArray& a = f.micromaps.arrays[ai];
-    Writer flat;
-    flat.out.reserve(kFlatHeaderBytes + a.descriptors.size() * 8 + a.indices.size() * 4 + a.data.size() +
-                     256);
-    flat.u32(uint32_t(a.indices.size()));
-    flat.u32(uint32_t(a.descriptors.size()));
-    flat.u32(uint32_t(a.indexType()));
-    flat.u32(uint32_t(a.histogram.size()));
-    flat.u32(uint32_t(a.triangleHistogram.size()));
-    flat.u32(0);
-    flat.u64(a.data.size());
-    flat.bytes(a.descriptorBytes());
+    total += kChunkHeaderBytes + padded(kFlatHeaderBytes + a.descriptorBytes().size() +
+                                        12 * (a.histogram.size() + a.triangleHistogram.size()) +
+                                        a.indexBufferBytes().size() + a.data.size());
+    for (const EncodedSection& e : f.encodings[ai]) total += kChunkHeaderBytes + padded(8 + e.bytes.size());
+  }
+  if (!w.refs) w.out.reserve(total);
+  for (size_t ai = 0; ai < f.micromaps.arrays.size(); ++ai) {
+    const OmmArray& a = f.micromaps.arrays[ai];
+    const OpenChunk flat = openChunk(w, kFlat, uint32_t(ai));
+    w.u32(uint32_t(a.indices.size()));
+    w.u32(uint32_t(a.descriptors.size()));
+    w.u32(uint32_t(a.indexType()));
+    w.u32(uint32_t(a.histogram.size()));
+    w.u32(uint32_t(a.triangleHistogram.size()));
+    w.u32(0);
+    w.u64(a.data.size());
+    w.bytes(a.descriptorBytes());
     for (const auto* h : {&a.histogram, &a.triangleHistogram})
       for (const UsageCount& c : *h) {
-        flat.u32(c.count);
-        flat.u32(c.subdivisionLevel);
-        flat.u32(c.format);
+        w.u32(c.count);
+        w.u32(c.subdivisionLevel);
+        w.u32(c.format);
       }
-    flat.bytes(a.indexBufferBytes());
-    flat.bytes(a.data);
-    putChunk(w, kFlat, uint32_t(ai), flat.out);
+    w.bytes(a.indexBufferBytes());  // temporaries: copied (data and encodings are referenced)
+    w.ref(a.data);
+    closeChunk(w, flat);
 
     for (const EncodedSection& e : f.encodings[ai]) {
-      Writer enc;
-      enc.out.reserve(8 + e.bytes.size());
-      enc.u32(e.id);
-      enc.u32(0);
-      enc.bytes(e.bytes);
-      putChunk(w, kEncd, uint32_t(ai), enc.out);
+      const OpenChunk enc = openChunk(w, kEncd, uint32_t(ai));
+      w.u32(e.id);
+      w.u32(0);
+      w.ref(e.bytes);
+      closeChunk(w, enc);
     }
   }
   putChunk(w, kEnd, kNoGeometry, {});
-  w.patchU64(16, w.out.size());
+  w.patchU64(16, w.pos());
   w.patchU64(24, XXH3_64bits(w.out.data(), 24));
+  w.flush();
+  return Ok{};
+}
+
+}  // namespace
+
+Result<std::vector<uint8_t>> serializeSomm(const SommFile& f) {
+  Writer w;
+  if (Status s = serializeInto(f, w); !s) return s.error();
   return std::move(w.out);
+}
+
+Status writeSommFile(const std::string& path, const SommFile& file) {
+  Writer w;
+  w.refs = true;
+  if (Status s = serializeInto(file, w); !s)
+    return makeError(s.error().code, path + ": not written: " + s.error().message);
+  std::vector<std::pair<const uint8_t*, size_t>> pieces;
+  pieces.reserve(w.segments.size());
+  for (const Writer::Segment& g : w.segments)
+    pieces.emplace_back(g.external ? g.external : w.out.data() + g.own, g.size);
+  return writeFileAtomically(path, pieces.data(), pieces.size());
 }
 
 Result<SommFile> parseSomm(Span<const uint8_t> bytes, std::string_view nameView) {

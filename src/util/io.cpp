@@ -107,6 +107,12 @@ Result<std::vector<uint8_t>> readRegularFile(const std::string& path, uint64_t m
 }
 
 Status writeFileAtomically(const std::string& path, const uint8_t* bytes, size_t size) {
+  const std::pair<const uint8_t*, size_t> one{bytes, size};
+  return writeFileAtomically(path, &one, 1);
+}
+
+Status writeFileAtomically(const std::string& path, const std::pair<const uint8_t*, size_t>* pieces,
+                           size_t count) {
   if (path.empty()) return makeError(ErrorCode::InvalidArgument, "empty output path");
   if (path.back() == '/')
     return makeError(ErrorCode::InvalidArgument, escapeName(path) + ": is a directory name");
@@ -131,14 +137,18 @@ Status writeFileAtomically(const std::string& path, const uint8_t* bytes, size_t
   const mode_t mask = ::umask(0);
   ::umask(mask);
   if (::fchmod(fd, 0666 & ~mask) != 0) return fail("cannot set permissions");
-  size_t done = 0;
-  while (done < size) {
-    const ssize_t w = ::write(fd, bytes + done, size - done);
-    if (w < 0) {
-      if (errno == EINTR) continue;
-      return fail("write failed");
+  for (size_t i = 0; i < count; ++i) {
+    const uint8_t* bytes = pieces[i].first;
+    const size_t size = pieces[i].second;
+    size_t done = 0;
+    while (done < size) {
+      const ssize_t w = ::write(fd, bytes + done, size - done);
+      if (w < 0) {
+        if (errno == EINTR) continue;
+        return fail("write failed");
+      }
+      done += size_t(w);
     }
-    done += size_t(w);
   }
   if (::fsync(fd) != 0) return fail("fsync failed");
   if (::close(fd) != 0) {

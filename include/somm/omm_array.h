@@ -82,7 +82,10 @@ class OmmArrayBuilder {
   void addIndex(int32_t index) { array_.indices.push_back(index); }
 
   uint32_t triangleCount() const noexcept { return uint32_t(array_.indices.size()); }
+  // The descriptors and indices so far; its `data` is filled by finish() (the maps are kept in chunks until then).
   const OmmArray& array() const noexcept { return array_; }
+  // Bytes of micromap data stored so far.
+  size_t dataBytes() const noexcept { return dataSize_; }
   OmmArray finish();
 
  private:
@@ -90,7 +93,12 @@ class OmmArrayBuilder {
     uint64_t hash;
     int32_t descriptor;
   };
+  static constexpr size_t kChunkBytes = size_t(16) << 20;
   OmmArray array_;
+  std::vector<std::vector<uint8_t>> chunks_;  // the data: fixed-size chunks, concatenated by finish()
+  size_t dataSize_ = 0;
+  void store(const uint8_t* p, size_t n);
+  bool storedEquals(size_t offset, const uint8_t* p, size_t n) const;
   std::vector<std::vector<Slot>> buckets_ = std::vector<std::vector<Slot>>(1024);
   size_t uniqueCount_ = 0;
   void grow();

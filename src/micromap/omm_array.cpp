@@ -108,13 +108,13 @@ int32_t OmmArrayBuilder::intern(const Micromap& map) {
     if (s.hash != h) continue;
     const TriangleDescriptor& d = array_.descriptors[size_t(s.descriptor)];
     if (d.subdivisionLevel == map.level() && d.format == uint16_t(map.format()) &&
-        std::memcmp(array_.data.data() + d.dataOffset, bytes.data(), bytes.size()) == 0)
+        storedEquals(d.dataOffset, bytes.data(), bytes.size()))
       return s.descriptor;
   }
   const int32_t id = int32_t(array_.descriptors.size());
   array_.descriptors.push_back(
-      TriangleDescriptor{uint32_t(array_.data.size()), uint16_t(map.level()), uint16_t(map.format())});
-  array_.data.insert(array_.data.end(), bytes.begin(), bytes.end());
+      TriangleDescriptor{uint32_t(dataSize_), uint16_t(map.level()), uint16_t(map.format())});
+  store(bytes.data(), bytes.size());
   bucket.push_back(Slot{h, id});
   if (++uniqueCount_ > buckets_.size() * 2) grow();
   return id;
@@ -148,7 +148,43 @@ void computeUsageHistograms(OmmArray& a) {
   a.triangleHistogram = std::move(h.triangles);
 }
 
+void OmmArrayBuilder::store(const uint8_t* p, size_t n) {
+  dataSize_ += n;
+  while (n) {
+    if (chunks_.empty() || chunks_.back().size() == kChunkBytes) {
+      chunks_.emplace_back();
+      chunks_.back().reserve(kChunkBytes);
+    }
+    std::vector<uint8_t>& c = chunks_.back();
+    const size_t k = std::min(n, kChunkBytes - c.size());
+    c.insert(c.end(), p, p + k);
+    p += k;
+    n -= k;
+  }
+}
+
+bool OmmArrayBuilder::storedEquals(size_t offset, const uint8_t* p, size_t n) const {
+  while (n) {
+    const std::vector<uint8_t>& c = chunks_[offset / kChunkBytes];
+    const size_t at = offset % kChunkBytes, k = std::min(n, c.size() - at);
+    if (std::memcmp(c.data() + at, p, k) != 0) return false;
+    offset += k;
+    p += k;
+    n -= k;
+  }
+  return true;
+}
+
 OmmArray OmmArrayBuilder::finish() {
+  // One contiguous copy of the chunks, each freed once copied: the data is held about once (+ one chunk), never
+  // twice as a growing vector's reallocation would.
+  array_.data.reserve(dataSize_);
+  for (std::vector<uint8_t>& c : chunks_) {
+    array_.data.insert(array_.data.end(), c.begin(), c.end());
+    std::vector<uint8_t>().swap(c);
+  }
+  chunks_.clear();
+  dataSize_ = 0;
   computeUsageHistograms(array_);
   OmmArray out = std::move(array_);
   array_ = OmmArray{};

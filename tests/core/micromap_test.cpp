@@ -79,6 +79,41 @@ TEST(Micromap, GetSetByBarycentrics) {
   EXPECT_EQ(m.getUV(0.55f, 0.27f), State::UnknownOpaque);
 }
 
+// Maps are stored in fixed-size chunks until finish(): a map that straddles a chunk boundary (16 MiB) is found
+// again by its exact bytes, one that differs only in its last byte is not, and finish() gives the plain
+// concatenation in order of first appearance.
+TEST(OmmArray, BuilderDedupAcrossDataChunks) {
+  OmmArrayBuilder b;
+  Micromap tiny(1, Format::FourState);
+  tiny.set(0, State::Opaque);  // 1 byte: every later 1 MiB map is offset by one byte from the chunk grid
+  std::vector<Micromap> maps;
+  for (uint32_t k = 0; k < 17; ++k) {
+    Micromap m(11, Format::FourState);  // 2^22 micro-triangles × 2 bits = 1 MiB
+    m.set(k, State::Opaque);
+    m.set(m.size() - 1 - k, State::UnknownOpaque);
+    maps.push_back(std::move(m));
+  }
+  ASSERT_EQ(maps[0].bytes().size(), size_t(1) << 20);
+  EXPECT_EQ(b.add(tiny), 0);
+  for (uint32_t k = 0; k < 17; ++k) EXPECT_EQ(b.add(maps[k]), int32_t(k + 1));
+  EXPECT_EQ(b.dataBytes(), 1 + (size_t(17) << 20));
+  // maps[15] occupies [1 + 15 MiB, 1 + 16 MiB): its last byte is in the second chunk.
+  EXPECT_EQ(b.add(maps[15]), 16);
+  Micromap last = maps[15];
+  last.set(last.size() - 1, State::Opaque);  // differs in the straddling map's last byte only
+  EXPECT_EQ(b.add(last), 18);
+  EXPECT_EQ(b.add(tiny), 0);
+  const OmmArray arr = b.finish();
+  std::vector<uint8_t> expect(tiny.bytes().begin(), tiny.bytes().end());
+  for (const Micromap& m : maps) expect.insert(expect.end(), m.bytes().begin(), m.bytes().end());
+  expect.insert(expect.end(), last.bytes().begin(), last.bytes().end());
+  EXPECT_TRUE(arr.data == expect);
+  ASSERT_EQ(arr.descriptors.size(), 19u);
+  EXPECT_EQ(arr.descriptors[16].dataOffset, 1 + (uint32_t(15) << 20));
+  EXPECT_EQ(arr.descriptors[18].dataOffset, 1 + (uint32_t(17) << 20));
+  EXPECT_EQ(arr.indices.size(), 21u);
+}
+
 TEST(OmmArray, DedupSpecialIndicesAndBytes) {
   OmmArrayBuilder b;
   Micromap a(1, Format::FourState);

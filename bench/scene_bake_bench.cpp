@@ -6,12 +6,14 @@
 //    texture baked once, then 2 bilinear point samples per micro-triangle, not conservative). At level 9 it runs on a
 //    deterministic 1/k sample of the unique triangles and is extrapolated (k reported);
 //  * `vs_pergeometry` (level 6): today's per-geometry path, bakeGeometry on every geometry in turn (no sharing);
-//  * `speedup_2t`: wall time of the one-thread bake over this one (the 2-thread runs).
+//  * `speedup_2t`: wall time of the one-thread bake over this one (the 2-thread runs);
+//  * BM_BakeCommand: the same ratio for the whole load + bake + write path, one and two threads interleaved.
 // Every run checks its result: conservative against the alpha test on a sample (float UV interpolation at random
 // points of known micro-triangles, `violations` must be 0) and byte-identical to the one-thread bake.
 #include <benchmark/benchmark.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
+#include <tbb/global_control.h>
 #include <unistd.h>
 
 #include <array>
@@ -20,14 +22,18 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <map>
 #include <memory>
 #include <random>
 #include <string>
+#include <vector>
 
 #include "somm/bake.h"
 #include "somm/bird.h"
 #include "somm/scene.h"
+#include "somm/somm_file.h"
 #include "somm/trace.h"
 
 namespace {
@@ -259,6 +265,88 @@ void BM_BakeScene(benchmark::State& state, const char* rel) {
   state.SetLabel(std::string(rel) + " level " + std::to_string(level) + " threads " +
                  std::to_string(threads));
 }
+
+// The whole `somm bake SCENE -o F.somm` path in this process — load the scene (images decoded in parallel), bake,
+// write the .somm file — under a thread cap as `somm bake -j N` sets it (tbb::global_control). One and two threads
+// run interleaved, three times each: `speedup_2t` is the best one-thread wall time over the best two-thread one;
+// `bake_speedup_2t` the same for bakeScene alone, from the same runs; the outputs must be byte-identical.
+void BM_BakeCommand(benchmark::State& state, const char* rel) {
+  const char* env = std::getenv("SOMM_FOLIAGE_DIR");
+  const std::string dir = env && *env ? env : SOMM_FOLIAGE_DIR;
+  const std::string path = dir + "/" + rel;
+  if (dir.empty() || !std::filesystem::exists(path)) {
+    state.SkipWithError((std::string(rel) + " not found under SOMM_FOLIAGE_DIR").c_str());
+    return;
+  }
+  const uint32_t level = uint32_t(state.range(0));
+  const std::string out =
+      (std::filesystem::temp_directory_path() / ("somm_bench_" + std::to_string(getpid()) + ".somm"))
+          .string();
+  struct Run {
+    double wall = 1e30, bake = 1e30;
+    std::vector<uint8_t> bytes;
+  };
+  std::string error;
+  auto once = [&](uint32_t threads, Run& run) {
+    tbb::global_control cap(tbb::global_control::max_allowed_parallelism, threads);
+    const auto w0 = std::chrono::steady_clock::now();
+    auto scene = somm::loadScene(path);
+    if (!scene) return void(error = scene.error().message);
+    const auto b0 = std::chrono::steady_clock::now();
+    auto r = somm::bakeScene(*scene, options(level, threads));
+    const auto b1 = std::chrono::steady_clock::now();
+    if (!r) return void(error = r.error().message);
+    somm::SommFile f;
+    f.sourcePath = path;
+    f.toolVersion = "somm bench";
+    for (size_t g = 0; g < scene->geometries.size(); ++g) {
+      somm::GeometryInfo info;
+      info.name = scene->geometries[g].name;
+      info.material = scene->materials[scene->geometries[g].material].name;
+      info.triangleCount = scene->geometries[g].triangleCount();
+      info.minLevel = r->geometries[g].stats.minLevel;
+      info.maxLevel = r->geometries[g].stats.maxLevel;
+      f.geometries.push_back(std::move(info));
+    }
+    f.micromaps = std::move(r->micromaps);
+    f.encodings.assign(f.micromaps.arrays.size(), {});
+    if (somm::Status s = somm::writeSommFile(out, f); !s) return void(error = s.error().message);
+    const auto w1 = std::chrono::steady_clock::now();
+    run.wall = std::min(run.wall, std::chrono::duration<double>(w1 - w0).count());
+    run.bake = std::min(run.bake, std::chrono::duration<double>(b1 - b0).count());
+    std::ifstream in(out, std::ios::binary);
+    std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (run.bytes.empty()) run.bytes = std::move(bytes);
+    if (bytes.size() && bytes != run.bytes) error = "a repeated bake wrote different bytes";
+  };
+  Run one, two;
+  for (auto _ : state)
+    for (int k = 0; k < 3 && error.empty(); ++k) {
+      once(1, one);
+      once(2, two);
+    }
+  std::filesystem::remove(out);
+  if (error.empty() && one.bytes != two.bytes) error = "the two-thread file differs from the one-thread file";
+  if (!error.empty()) return state.SkipWithError(error.c_str());
+  state.counters["wall_1t_s"] = one.wall;
+  state.counters["wall_2t_s"] = two.wall;
+  state.counters["speedup_2t"] = one.wall / two.wall;
+  state.counters["bake_speedup_2t"] = one.bake / two.bake;
+  state.SetLabel(std::string(rel) + " level " + std::to_string(level) + ": load + bake + write");
+}
+
+BENCHMARK_CAPTURE(BM_BakeCommand, forza, "torcs-forza/forza.obj")
+    ->Arg(6)
+    ->Arg(9)
+    ->Iterations(1)
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_BakeCommand, flora, "zeroad/flora-quarter.obj")
+    ->Arg(6)
+    ->Arg(9)
+    ->Iterations(1)
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime();
 
 BENCHMARK_CAPTURE(BM_BakeScene, forza, "torcs-forza/forza.obj")
     ->ArgsProduct({{6, 9}, {1, 2}})

@@ -153,7 +153,8 @@ void OmmArrayBuilder::store(const uint8_t* p, size_t n) {
   while (n) {
     if (chunks_.empty() || chunks_.back().size() == kChunkBytes) {
       chunks_.emplace_back();
-      chunks_.back().reserve(kChunkBytes);
+      // Later chunks are reserved whole; the first grows with the data (small bakes allocate little).
+      if (chunks_.size() > 1) chunks_.back().reserve(kChunkBytes);
     }
     std::vector<uint8_t>& c = chunks_.back();
     const size_t k = std::min(n, kChunkBytes - c.size());

@@ -483,12 +483,13 @@ struct TriangleClassifier {
   // when first needed: vertex k of child c is point kLeafVertex[c][k] (a, b, c, ab, ac, bc).
   static constexpr uint8_t kLeafVertex[4][3] = {{0, 3, 4}, {4, 5, 3}, {3, 1, 5}, {5, 4, 2}};
   static constexpr uint8_t kChildOf[6] = {0, 2, 3, 0, 0, 1}, kSlotOf[6] = {0, 1, 2, 1, 2, 1};
-  void leaves(const double cX[4][3], const double cY[4][3], uint32_t prefix) noexcept {
+  // `vb`: bit k is the alpha test at the parent's vertex k (points 0..2), sampled by the parent's parent.
+  void leaves(const double cX[4][3], const double cY[4][3], uint32_t prefix, unsigned vb) noexcept {
     work += 4;
     // Every sample first, without branching on any (they are cheap; mispredicted branches are not): the 6 vertices
     // (bit p: point p passes) and each leaf's 4 child centroids.
-    unsigned vpass = 0;
-    for (unsigned p = 0; p < 6; ++p)
+    unsigned vpass = vb & 7u;
+    for (unsigned p = 3; p < 6; ++p)
       vpass |= unsigned(passesAt(cX[kChildOf[p]][kSlotOf[p]], cY[kChildOf[p]][kSlotOf[p]])) << p;
     int pass[4];
     for (uint32_t c = 0; c < 4; ++c) pass[c] = centroidPasses(cX[c], cY[c]);
@@ -510,8 +511,10 @@ struct TriangleClassifier {
     }
   }
 
-  // Node `prefix` at `depth` with cell-space vertices (X, Y) whose region class is `r`.
-  void node(const double X[3], const double Y[3], uint32_t depth, uint32_t prefix, unsigned r) noexcept {
+  // Node `prefix` at `depth` with cell-space vertices (X, Y) whose region class is `r`; bit k of `vb` is the alpha
+  // test at vertex k (passesAt(X[k], Y[k]), taken once where the vertex was first a witness).
+  void node(const double X[3], const double Y[3], uint32_t depth, uint32_t prefix, unsigned r,
+            unsigned vb) noexcept {
     const uint32_t span = 1u << (2 * (level - depth));
     const uint32_t start = prefix * span;
     if (r == kPass) return fill(start, span, State::Opaque);
@@ -532,17 +535,20 @@ struct TriangleClassifier {
     // Child order of the bird curve (see indexToMicroTriangle).
     const double cX[4][3] = {{ax, abx, acx}, {acx, bcx, abx}, {abx, bx, bcx}, {bcx, acx, cx}};
     const double cY[4][3] = {{ay, aby, acy}, {acy, bcy, aby}, {aby, by, bcy}, {bcy, acy, cy}};
-    if (depth + 1 == level) return leaves(cX, cY, prefix);
+    if (depth + 1 == level) return leaves(cX, cY, prefix, vb);
     // Witnesses as in leaves(): a child whose vertices (the points a, b, c, ab, ac, bc of this node) and centroid
     // see both classes has a mixed region, which region() would report too; it is subdivided without the test.
     bool v[6];
-    for (int p = 0; p < 6; ++p) v[p] = passesAt(cX[kChildOf[p]][kSlotOf[p]], cY[kChildOf[p]][kSlotOf[p]]);
+    for (int p = 0; p < 3; ++p) v[p] = (vb >> p) & 1u;
+    for (int p = 3; p < 6; ++p) v[p] = passesAt(cX[kChildOf[p]][kSlotOf[p]], cY[kChildOf[p]][kSlotOf[p]]);
     for (uint32_t c = 0; c < 4; ++c) {
       const bool v0 = v[kLeafVertex[c][0]];
       const bool mixed =
           v[kLeafVertex[c][1]] != v0 || v[kLeafVertex[c][2]] != v0 ||
           passesAt((cX[c][0] + cX[c][1] + cX[c][2]) / 3, (cY[c][0] + cY[c][1] + cY[c][2]) / 3) != v0;
-      node(cX[c], cY[c], depth + 1, prefix * 4 + c, mixed ? kMixed : region(cX[c], cY[c], kNodeCells));
+      const unsigned cvb = unsigned(v[kLeafVertex[c][0]]) | unsigned(v[kLeafVertex[c][1]]) << 1 |
+                           unsigned(v[kLeafVertex[c][2]]) << 2;
+      node(cX[c], cY[c], depth + 1, prefix * 4 + c, mixed ? kMixed : region(cX[c], cY[c], kNodeCells), cvb);
     }
   }
 };
@@ -641,7 +647,9 @@ void classify(const AlphaMask& mask, const Prepared& p, uint32_t level, Format f
   // as is.
   if (out.map.level() != level || out.map.format() != format) out.map = Micromap(level, format);
   c.bytes = out.map.bytes().data();
-  c.node(X, Y, 0, 0, r);
+  unsigned vb = 0;
+  for (int k = 0; k < 3; ++k) vb |= unsigned(c.passesAt(X[k], Y[k])) << k;
+  c.node(X, Y, 0, 0, r, vb);
   out.unknown = c.unknown;
   out.work = c.work + 1;
 }

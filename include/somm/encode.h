@@ -403,6 +403,24 @@ inline State sdagState(const uint8_t* data, const SdagDirectory& dir, uint32_t o
   return getValue(p, 0, f, index & 15u);
 }
 
+// Arrays with the sdag directory (sdag, hybrid with sdag maps) store their own packed index buffer: k bits per
+// triangle, k = sdagIndexBits(maps) = bits to hold 0 .. maps+3; triangle t's value at bit t·k is the map number,
+// or 2^k + i for a special index i (-1 .. -4), i.e. the k-bit two's complement. Random access: one unaligned
+// 64-bit load (the descriptors, data and tail padding follow the index buffer).
+constexpr uint32_t sdagIndexBits(uint64_t maps) noexcept {
+  uint32_t k = 2;
+  while (k < 32 && (uint64_t(1) << k) < maps + 4) ++k;
+  return k;
+}
+constexpr uint64_t packedIndexBytes(uint64_t triangles, uint32_t bits) noexcept {
+  return (triangles * bits + 7) / 8;
+}
+inline int32_t packedIndex(const uint8_t* p, uint32_t bits, uint32_t t) noexcept {
+  const uint64_t pos = uint64_t(t) * bits, top = uint64_t(1) << bits;
+  const uint64_t v = (load64(p + (pos >> 3)) >> (pos & 7u)) & (top - 1u);
+  return v >= top - 4u ? int32_t(int64_t(v) - int64_t(top)) : int32_t(v);
+}
+
 // Encode / decode one map. Encoding a map is deterministic and canonical (maximal collapse).
 std::vector<uint8_t> encodeMap(const Micromap& map, MapKind kind);
 // Decodes a blob produced by encodeMap (trusted input).
@@ -440,6 +458,13 @@ class EncodedArray {
   // The data bytes, without the tail padding.
   Span<const uint8_t> data() const noexcept { return {data_.data(), dataBytes_}; }
   IndexType indexType() const noexcept { return indexType_; }
+  // Bits per triangle of the serialized index buffer: 0 = the spec's 16/32-bit buffer (indexType()); k > 0 = the
+  // packed buffer of arrays with the sdag directory (encode::sdagIndexBits), which the sdag lookup reads.
+  uint32_t indexBits() const noexcept { return indexBits_; }
+  uint64_t indexBufferBytes() const noexcept {
+    return indexBits_ ? encode::packedIndexBytes(indices_.size(), indexBits_)
+                      : uint64_t(indices_.size()) * uint64_t(indexType_);
+  }
   // The sdag directory (zero unless hasDirectory(): always for sdag, for hybrid when a map is of kind Sdag).
   bool hasDirectory() const noexcept { return hasDirectory_; }
   const encode::SdagDirectory& directory() const noexcept { return dir_; }
@@ -459,7 +484,7 @@ class EncodedArray {
   uint64_t dataBytes() const noexcept { return dataBytes_; }
   uint64_t paddingBytes() const noexcept { return data_.size() - dataBytes_; }
   uint64_t byteSize() const noexcept {
-    return encode::kArrayHeaderBytes + uint64_t(indices_.size()) * uint64_t(indexType_) +
+    return encode::kArrayHeaderBytes + indexBufferBytes() +
            uint64_t(maps_.size()) * encode::kDescriptorBytes + data_.size();
   }
 
@@ -506,17 +531,25 @@ class EncodedArray {
   // The same with the encoding fixed at compile time (E must equal encoding()).
   template <Encoding E>
   State stateAs(uint32_t triangle, uint32_t index) const noexcept {
-    const int32_t i = indices_[triangle];
+    const int32_t i = indexAs<E>(triangle);
     if (i < 0) return stateOfSpecialIndex(i);
     const EncodedMapDesc& d = maps_[size_t(i)];
     return mapState<E>(d, index);
   }
   template <Encoding E>
   State stateUVAs(uint32_t triangle, float u, float v) const noexcept {
-    const int32_t i = indices_[triangle];
+    const int32_t i = indexAs<E>(triangle);
     if (i < 0) return stateOfSpecialIndex(i);
     const EncodedMapDesc& d = maps_[size_t(i)];
     return mapState<E>(d, baryToIndex(u, v, d.level));
+  }
+
+  // The triangle's index-buffer value (a descriptor index or a special index -1..-4): sdag reads its packed
+  // buffer, the others the spec one.
+  template <Encoding E>
+  int32_t indexAs(uint32_t triangle) const noexcept {
+    if constexpr (E == Encoding::Sdag) return encode::packedIndex(packed_.data(), indexBits_, triangle);
+    return indices_[triangle];
   }
 
   template <Encoding E>
@@ -566,7 +599,8 @@ class EncodedArray {
   friend bool operator==(const EncodedArray& a, const EncodedArray& b) {
     return a.encoding_ == b.encoding_ && a.indexType_ == b.indexType_ && a.indices_ == b.indices_ &&
            a.maps_ == b.maps_ && a.data_ == b.data_ && a.dataBytes_ == b.dataBytes_ &&
-           a.hasDirectory_ == b.hasDirectory_ && a.dir_ == b.dir_;
+           a.hasDirectory_ == b.hasDirectory_ && a.dir_ == b.dir_ && a.indexBits_ == b.indexBits_ &&
+           a.packed_ == b.packed_;
   }
   friend bool operator!=(const EncodedArray& a, const EncodedArray& b) noexcept { return !(a == b); }
 
@@ -579,6 +613,9 @@ class EncodedArray {
   uint64_t dataBytes_ = 0;
   bool hasDirectory_ = false;
   encode::SdagDirectory dir_{};
+  uint32_t indexBits_ = 0;       // > 0 iff hasDirectory_
+  std::vector<uint8_t> packed_;  // the packed index buffer (indexBits_ > 0) + kTailPadding zero bytes
+  void packIndices();
 };
 
 // Checks that a (parsed, validated) encoded array answers exactly like the flat spec buffers it was stored

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <map>
 #include <tuple>
 #include <unordered_map>
@@ -976,6 +977,11 @@ uint32_t getU32(const uint8_t* p) {
   return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24;
 }
 
+uint64_t newIdentity() {
+  static std::atomic<uint64_t> next{1};
+  return next.fetch_add(1, std::memory_order_relaxed);
+}
+
 constexpr uint32_t kMagic = 0x434e4553;   // "SENC"
 constexpr uint8_t kVersion = 1;           // arrays without the sdag directory
 constexpr uint8_t kVersionTiers = 2;      // the old sdag layout: directory with tiers, 16/32-bit index buffer
@@ -1165,6 +1171,7 @@ Result<EncodedArray> EncodedArray::build(const OmmArray& array, Encoding encodin
   out.data_ = std::move(data);
   out.data_.resize(out.data_.size() + (anyTree ? encode::kTailPadding : 0), 0);
   if (out.hasDirectory_) out.packIndices();
+  out.identity_ = newIdentity();
   return out;
 }
 
@@ -1378,6 +1385,7 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
   for (uint64_t i = dataBytes; i < out.data_.size(); ++i)
     if (out.data_[i] != 0) return bad("encoded array tail padding is not zero");
   out.dataBytes_ = dataBytes;
+  out.identity_ = newIdentity();
   return out;
 }
 

@@ -700,3 +700,34 @@ TEST(EncodeNames, ParseLists) {
 
 }  // namespace
 }  // namespace somm
+
+namespace somm {
+namespace {
+
+// The per-thread memo of the sdag walk is keyed by the array's identity: two arrays with the same layout (same
+// root offsets, levels and index prefixes) but different states, looked up alternately, each answer as flat;
+// a copy answers as its original, and a parsed array gets its own identity.
+TEST(EncodeDag, WalkMemoNeverAnswersForOtherBytes) {
+  for (Format f : {Format::TwoState, Format::FourState})
+    for (uint32_t level : {6u, 7u, 8u}) {
+      const OmmArray a = arrayOf({makeMap(Pattern::Leaf, level, f, 1)});
+      OmmArray b = a;
+      for (uint8_t& byte : b.data) byte = uint8_t(~byte);  // every state changes (4-state: 0<->3, 1<->2)
+      const EncodedArray ea = EncodedArray::build(a, Encoding::Sdag).value();
+      const EncodedArray eb = EncodedArray::build(b, Encoding::Sdag).value();
+      ASSERT_NE(ea.identity(), eb.identity());
+      const EncodedArray copy = ea;
+      const EncodedArray parsed = EncodedArray::parse(eb.serialize()).value();
+      EXPECT_EQ(copy.identity(), ea.identity());
+      EXPECT_NE(parsed.identity(), eb.identity());
+      for (uint32_t i = 0; i < microTriangleCount(level); i += 3) {
+        ASSERT_EQ(ea.state(0, i), a.state(0, i)) << level << " " << i;
+        ASSERT_EQ(eb.state(0, i), b.state(0, i)) << level << " " << i;
+        ASSERT_EQ(copy.state(0, i), a.state(0, i)) << level << " " << i;
+        ASSERT_EQ(parsed.state(0, i), b.state(0, i)) << level << " " << i;
+      }
+    }
+}
+
+}  // namespace
+}  // namespace somm

@@ -50,6 +50,7 @@ template <Encoding E>
 void checkAs(const EncodedArray& a, const somm::OmmArray& flat) {
   for (uint32_t t = 0; t < a.triangleCount(); ++t) {
     const int32_t i = a.indices()[t];
+    if (a.indexAs<E>(t) != i) fail("the index buffer the lookup reads (packed for sdag) differs");
     const uint32_t level = i >= 0 ? a.maps()[size_t(i)].level : 0;
     for (uint32_t k = 0; k < lookupsFor(level); ++k) {
       const uint32_t idx = lookupIndex(k, level);

@@ -238,8 +238,18 @@ class AlphaMask {
   };
   Count count(int64_t x0, int64_t x1, int64_t y0, int64_t y1) const noexcept;
 
-  // Bytes held by the mask (its table), for memory accounting.
-  size_t memoryBytes() const noexcept { return sat_.size() * sizeof(uint32_t) + lut_.size() * sizeof(float); }
+  // The alpha test of the 64 texels (x, y) .. (x + 63, y) of row y (x < W, y < H) as bits 0..63; bits for texels at
+  // or beyond W are unspecified. (docs/baking.md "Pass bits".)
+  uint64_t passBits(uint32_t x, uint32_t y) const noexcept {
+    const uint64_t* row = bits_.data() + size_t(y) * words_ + (x >> 6);
+    const uint32_t s = x & 63u;
+    return s ? (row[0] >> s) | (row[1] << (64 - s)) : row[0];
+  }
+
+  // Bytes held by the mask (its tables), for memory accounting.
+  size_t memoryBytes() const noexcept {
+    return sat_.size() * sizeof(uint32_t) + bits_.size() * sizeof(uint64_t) + lut_.size() * sizeof(float);
+  }
 
  private:
   enum class Kind : uint8_t { U8, U16, F32 };
@@ -252,7 +262,9 @@ class AlphaMask {
   uint32_t w_ = 0, h_ = 0;
   Sampler sampler_;
   float cutoff_ = 0.5f;
-  std::vector<uint32_t> sat_;  // (w+1)·(h+1) summed-area table of pass bits
+  std::vector<uint32_t> sat_;   // (w+1)·(h+1) summed-area table of pass bits
+  std::vector<uint64_t> bits_;  // h rows of words_ words: bit x % 64 of word x / 64 is texel x's alpha test
+  size_t words_ = 0;  // w / 64 + 1 (a spare word, so passBits may read one word past the row's last texel)
   void build();
   uint64_t rect(uint32_t x0, uint32_t x1, uint32_t y0,
                 uint32_t y1) const noexcept;  // inclusive, wrapped coords

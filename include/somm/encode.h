@@ -151,6 +151,26 @@ inline constexpr auto kBytePopcount = [] {
   return t;
 }();
 
+// Forced inlining for the small steps of the DAG walks (the compiler otherwise keeps some out of line).
+#if defined(__GNUC__) || defined(__clang__)
+#define SOMM_ENCODE_INLINE __attribute__((always_inline)) inline
+#elif defined(_MSC_VER)
+#define SOMM_ENCODE_INLINE __forceinline
+#else
+#define SOMM_ENCODE_INLINE inline
+#endif
+
+// Population count of a 16-bit value (DAG masks and flags): the instruction when the build targets it, else two
+// table reads (shorter latency than the 64-bit SWAR on the DAG walks' dependent chains).
+SOMM_ENCODE_INLINE uint32_t popcount16(uint32_t x) noexcept {
+#if (defined(__GNUC__) || defined(__clang__)) && \
+    (defined(__POPCNT__) || !(defined(__x86_64__) || defined(__i386__)))
+  return uint32_t(__builtin_popcount(x));
+#else
+  return uint32_t(kBytePopcount[x & 0xffu]) + kBytePopcount[(x >> 8) & 0xffu];
+#endif
+}
+
 inline uint64_t load64(const uint8_t* p) noexcept {
   uint64_t w;
   std::memcpy(&w, p, 8);
@@ -362,10 +382,10 @@ struct SdagDirectory {
 };
 // Reference number i of the n node children of a record whose references start at bit `pos` (w, tier: of the
 // region referred to).
-inline uint32_t sdagRef(const uint8_t* p, uint32_t pos, uint32_t n, uint32_t i, uint32_t w,
-                        uint32_t tier) noexcept {
+SOMM_ENCODE_INLINE uint32_t sdagRef(const uint8_t* p, uint32_t pos, uint32_t n, uint32_t i, uint32_t w,
+                                    uint32_t tier) noexcept {
   if (tier == 0) return getBits(p, pos + w * i, w);
-  const uint32_t sw = tier - 1u, fl = getBits(p, pos, n), s = popcount64(fl & ((1u << i) - 1u));
+  const uint32_t sw = tier - 1u, fl = getBits(p, pos, n), s = popcount16(fl & ((1u << i) - 1u));
   return getBits(p, pos + n + sw * s + w * (i - s), ((fl >> i) & 1u) ? sw : w);
 }
 // Bits of the references (with their flags) of such a record.
@@ -379,28 +399,160 @@ inline const uint8_t* sdagChild(const uint8_t* data, const SdagDirectory& dir, F
   const uint32_t k = sdagRegion(f, height);
   return data + dir.base[k] + (height == 1 ? ref * 2u * bitsPerState(f) : ref);
 }
+// The walk, specialised per format and record height (unrolled: shifts, regions and state widths are
+// constants). Step of a node record of height H >= 2 at p: index bits [4(H-1), 4H) pick the child.
+template <Format F, uint32_t H>
+SOMM_ENCODE_INLINE State sdagNodeStep(const uint8_t* data, const SdagDirectory& dir, const uint8_t* p,
+                                      uint32_t index) noexcept {
+  constexpr uint32_t b = F == Format::TwoState ? 1u : 2u, k = sdagRegion(F, H - 1);
+  const uint32_t slot = (index >> (4u * (H - 1u))) & 15u, m = load16(p),
+                 below = popcount16(m & ((1u << slot) - 1u));
+  if (!((m >> slot) & 1u)) return getValue(p, 16, F, slot - below);
+  const uint32_t n = popcount16(m);
+  const uint32_t ref = sdagRef(p, 16 + b * (16 - n), n, below, dir.width[k], dir.tier[k]);
+  if constexpr (H == 2) {
+    return getValue(data + dir.base[k] + ref * 2u * b, 0, F, index & 15u);
+  } else {
+    return sdagNodeStep<F, H - 1>(data, dir, data + dir.base[k] + ref, index);
+  }
+}
+template <Format F>
+inline State sdagNodeWalk(const uint8_t* data, const SdagDirectory& dir, const uint8_t* p, uint32_t h,
+                          uint32_t index) noexcept {
+  switch (h) {
+    case 1:
+      return getValue(p, 0, F, index & 15u);
+    case 2:
+      return sdagNodeStep<F, 2>(data, dir, p, index);
+    case 3:
+      return sdagNodeStep<F, 3>(data, dir, p, index);
+    case 4:
+      return sdagNodeStep<F, 4>(data, dir, p, index);
+    case 5:
+      return sdagNodeStep<F, 5>(data, dir, p, index);
+    default:
+      return sdagNodeStep<F, 6>(data, dir, p, index);
+  }
+}
+template <Format F>
+inline State sdagStateAs(const uint8_t* data, const SdagDirectory& dir, uint32_t offset, uint32_t level,
+                         uint32_t index) noexcept {
+  const uint8_t* p = data + offset;
+  if (level <= 1) return getValue(p, 0, F, index);
+  const uint32_t h = level >> 1;
+  if (level & 1u) {  // 4-way root: M in bits 0..3, states from bit 4
+    constexpr uint32_t b = F == Format::TwoState ? 1u : 2u;
+    const uint32_t slot = index >> (2 * level - 2), m = p[0] & 15u,
+                   below = popcount16(m & ((1u << slot) - 1u));
+    if (!((m >> slot) & 1u)) return getValue(p, 4, F, slot - below);
+    const uint32_t k = sdagRegion(F, h), n = popcount16(m);
+    p = sdagChild(data, dir, F, h, sdagRef(p, 4 + b * (4 - n), n, below, dir.width[k], dir.tier[k]));
+  }
+  return sdagNodeWalk<F>(data, dir, p, h, index);
+}
+// The walk from a map's root down to the record of height 2 that covers index bits [8, ...): returns that
+// record's byte offset in the data (>= kSdagDirectoryBytes), or the state (< 4) when a uniform child above it
+// ends the walk. Maps of level >= 6 only (root height >= 3, or a 4-way root above height >= 2... see below).
+template <Format F, uint32_t H>
+inline uint32_t sdagDescend(const uint8_t* data, const SdagDirectory& dir, const uint8_t* p,
+                            uint32_t index) noexcept {
+  constexpr uint32_t b = F == Format::TwoState ? 1u : 2u, k = sdagRegion(F, H - 1);
+  const uint32_t slot = (index >> (4u * (H - 1u))) & 15u, m = load16(p),
+                 below = popcount16(m & ((1u << slot) - 1u));
+  if (!((m >> slot) & 1u)) return uint32_t(getValue(p, 16, F, slot - below));
+  const uint32_t n = popcount16(m);
+  const uint32_t child = dir.base[k] + sdagRef(p, 16 + b * (16 - n), n, below, dir.width[k], dir.tier[k]);
+  if constexpr (H == 3) {
+    return child;
+  } else {
+    return sdagDescend<F, H - 1>(data, dir, data + child, index);
+  }
+}
+template <Format F>
+inline uint32_t sdagDescendToHeight2(const uint8_t* data, const SdagDirectory& dir, uint32_t offset,
+                                     uint32_t level, uint32_t index) noexcept {
+  const uint8_t* p = data + offset;
+  uint32_t h = level >> 1;
+  if (level & 1u) {
+    constexpr uint32_t b = F == Format::TwoState ? 1u : 2u;
+    const uint32_t slot = index >> (2 * level - 2), m = p[0] & 15u,
+                   below = popcount16(m & ((1u << slot) - 1u));
+    if (!((m >> slot) & 1u)) return uint32_t(getValue(p, 4, F, slot - below));
+    const uint32_t k = sdagRegion(F, h), n = popcount16(m);
+    const uint32_t child = dir.base[k] + sdagRef(p, 4 + b * (4 - n), n, below, dir.width[k], dir.tier[k]);
+    if (h == 2) return child;
+    p = data + child;
+  }
+  switch (h) {
+    case 3:
+      return sdagDescend<F, 3>(data, dir, p, index);
+    case 4:
+      return sdagDescend<F, 4>(data, dir, p, index);
+    case 5:
+      return sdagDescend<F, 5>(data, dir, p, index);
+    default:
+      return sdagDescend<F, 6>(data, dir, p, index);
+  }
+}
+
+// A per-thread memo of the last walks from a root to a record of height 2 (16 entries, direct mapped): rays
+// next to each other hit the same 256-micro-triangle blocks of the same maps, and a hit skips all the DAG levels
+// above the last two. An entry is keyed by the array's identity (EncodedArray::identity(), unique per content:
+// a new one for every build and parse, shared only by copies, which hold the same bytes), the root's offset, the
+// level, the format and index >> 8, and holds an offset into the data (never a pointer), so it can never answer
+// for other bytes. Levels below 6 (at most two DAG steps) do not use it.
+struct SdagMemo {
+  struct Entry {
+    uint64_t array = 0;  // 0: empty (identities start at 1)
+    uint32_t root = 0;
+    uint32_t key = 0;     // index >> 8 | level << 20 | format << 28
+    uint32_t target = 0;  // sdagDescendToHeight2's answer
+  };
+  Entry entry[256];
+};
+inline SdagMemo& sdagMemo() noexcept {
+  thread_local SdagMemo memo;
+  return memo;
+}
+template <Format F>
+SOMM_ENCODE_INLINE State sdagStateMemo(const uint8_t* data, const SdagDirectory& dir, uint64_t array,
+                                       uint32_t offset, uint32_t level, uint32_t index) noexcept {
+  if (level < 6) return sdagStateAs<F>(data, dir, offset, level, index);
+  const uint32_t key = (index >> 8) | level << 20 | uint32_t(F) << 28;
+  SdagMemo::Entry& e = sdagMemo().entry[((offset * 0x9e3779b1u) ^ (key * 0x85ebca6bu)) >> 24];
+  uint32_t target;
+  if (e.array == array && e.root == offset && e.key == key) {
+    target = e.target;
+  } else {
+    target = sdagDescendToHeight2<F>(data, dir, offset, level, index);
+    e = SdagMemo::Entry{array, offset, key, target};
+  }
+  if (target < 4) return State(target);
+  return sdagNodeStep<F, 2>(data, dir, data + target, index);
+}
+
 inline State sdagState(const uint8_t* data, const SdagDirectory& dir, uint32_t offset, uint32_t level,
                        Format f, uint32_t index) noexcept {
-  const uint8_t* p = data + offset;
-  if (level <= 1) return getValue(p, 0, f, index);
-  const uint32_t b = bitsPerState(f);
-  uint32_t shift = 2 * level, h = level >> 1;
-  if (level & 1u) {  // 4-way root: M in bits 0..3, states from bit 4
-    shift -= 2;
-    const uint32_t slot = index >> shift, m = p[0] & 15u, below = popcount64(m & ((1u << slot) - 1u));
-    if (!((m >> slot) & 1u)) return getValue(p, 4, f, slot - below);
-    const uint32_t k = sdagRegion(f, h), n = popcount64(m);
-    p = sdagChild(data, dir, f, h, sdagRef(p, 4 + b * (4 - n), n, below, dir.width[k], dir.tier[k]));
-  }
-  while (h >= 2) {
-    shift -= 4;
-    const uint32_t slot = (index >> shift) & 15u, m = load16(p), below = popcount64(m & ((1u << slot) - 1u));
-    if (!((m >> slot) & 1u)) return getValue(p, 16, f, slot - below);
-    --h;
-    const uint32_t k = sdagRegion(f, h), n = popcount64(m);
-    p = sdagChild(data, dir, f, h, sdagRef(p, 16 + b * (16 - n), n, below, dir.width[k], dir.tier[k]));
-  }
-  return getValue(p, 0, f, index & 15u);
+  return f == Format::TwoState ? sdagStateAs<Format::TwoState>(data, dir, offset, level, index)
+                               : sdagStateAs<Format::FourState>(data, dir, offset, level, index);
+}
+
+// Arrays with the sdag directory (sdag, hybrid with sdag maps) store their own packed index buffer: k bits per
+// triangle, k = sdagIndexBits(maps) = bits to hold 0 .. maps+3; triangle t's value at bit t·k is the map number,
+// or 2^k + i for a special index i (-1 .. -4), i.e. the k-bit two's complement. Random access: one unaligned
+// 64-bit load (the descriptors, data and tail padding follow the index buffer).
+constexpr uint32_t sdagIndexBits(uint64_t maps) noexcept {
+  uint32_t k = 2;
+  while (k < 32 && (uint64_t(1) << k) < maps + 4) ++k;
+  return k;
+}
+constexpr uint64_t packedIndexBytes(uint64_t triangles, uint32_t bits) noexcept {
+  return (triangles * bits + 7) / 8;
+}
+inline int32_t packedIndex(const uint8_t* p, uint32_t bits, uint32_t t) noexcept {
+  const uint64_t pos = uint64_t(t) * bits, top = uint64_t(1) << bits;
+  const uint64_t v = (load64(p + (pos >> 3)) >> (pos & 7u)) & (top - 1u);
+  return v >= top - 4u ? int32_t(int64_t(v) - int64_t(top)) : int32_t(v);
 }
 
 // Encode / decode one map. Encoding a map is deterministic and canonical (maximal collapse).
@@ -440,9 +592,18 @@ class EncodedArray {
   // The data bytes, without the tail padding.
   Span<const uint8_t> data() const noexcept { return {data_.data(), dataBytes_}; }
   IndexType indexType() const noexcept { return indexType_; }
+  // Bits per triangle of the serialized index buffer: 0 = the spec's 16/32-bit buffer (indexType()); k > 0 = the
+  // packed buffer of arrays with the sdag directory (encode::sdagIndexBits), which the sdag lookup reads.
+  uint32_t indexBits() const noexcept { return indexBits_; }
+  uint64_t indexBufferBytes() const noexcept {
+    return indexBits_ ? encode::packedIndexBytes(indices_.size(), indexBits_)
+                      : uint64_t(indices_.size()) * uint64_t(indexType_);
+  }
   // The sdag directory (zero unless hasDirectory(): always for sdag, for hybrid when a map is of kind Sdag).
   bool hasDirectory() const noexcept { return hasDirectory_; }
   const encode::SdagDirectory& directory() const noexcept { return dir_; }
+  // Unique per content: every build and parse gets a new value (from 1); copies keep it (same bytes).
+  uint64_t identity() const noexcept { return identity_; }
   // The encoding whose bytes serve this array: dfs-fast is the dfs tree with another lookup, so it is stored
   // as dfs (a .somm file keeps one dfs section for both).
   static Encoding storedEncoding(Encoding e) noexcept { return e == Encoding::DfsFast ? Encoding::Dfs : e; }
@@ -459,7 +620,7 @@ class EncodedArray {
   uint64_t dataBytes() const noexcept { return dataBytes_; }
   uint64_t paddingBytes() const noexcept { return data_.size() - dataBytes_; }
   uint64_t byteSize() const noexcept {
-    return encode::kArrayHeaderBytes + uint64_t(indices_.size()) * uint64_t(indexType_) +
+    return encode::kArrayHeaderBytes + indexBufferBytes() +
            uint64_t(maps_.size()) * encode::kDescriptorBytes + data_.size();
   }
 
@@ -506,17 +667,25 @@ class EncodedArray {
   // The same with the encoding fixed at compile time (E must equal encoding()).
   template <Encoding E>
   State stateAs(uint32_t triangle, uint32_t index) const noexcept {
-    const int32_t i = indices_[triangle];
+    const int32_t i = indexAs<E>(triangle);
     if (i < 0) return stateOfSpecialIndex(i);
     const EncodedMapDesc& d = maps_[size_t(i)];
     return mapState<E>(d, index);
   }
   template <Encoding E>
   State stateUVAs(uint32_t triangle, float u, float v) const noexcept {
-    const int32_t i = indices_[triangle];
+    const int32_t i = indexAs<E>(triangle);
     if (i < 0) return stateOfSpecialIndex(i);
     const EncodedMapDesc& d = maps_[size_t(i)];
     return mapState<E>(d, baryToIndex(u, v, d.level));
+  }
+
+  // The triangle's index-buffer value (a descriptor index or a special index -1..-4): sdag reads its packed
+  // buffer, the others the spec one.
+  template <Encoding E>
+  int32_t indexAs(uint32_t triangle) const noexcept {
+    if constexpr (E == Encoding::Sdag) return encode::packedIndex(packed_.data(), indexBits_, triangle);
+    return indices_[triangle];
   }
 
   template <Encoding E>
@@ -530,7 +699,10 @@ class EncodedArray {
     if constexpr (E == Encoding::Csm) return encode::csmState(data_.data(), d.offset, d.level, f, index);
     if constexpr (E == Encoding::Sdag) {
       if (d.kind == MapKind::Flat) return encode::flatState(blob, d.level, f, index);
-      return encode::sdagState(data_.data(), dir_, d.offset, d.level, f, index);
+      if (f == Format::FourState)
+        return encode::sdagStateMemo<Format::FourState>(data_.data(), dir_, identity_, d.offset, d.level,
+                                                        index);
+      return encode::sdagStateMemo<Format::TwoState>(data_.data(), dir_, identity_, d.offset, d.level, index);
     }
     if constexpr (E == Encoding::Hybrid) {
       switch (d.kind) {
@@ -566,7 +738,8 @@ class EncodedArray {
   friend bool operator==(const EncodedArray& a, const EncodedArray& b) {
     return a.encoding_ == b.encoding_ && a.indexType_ == b.indexType_ && a.indices_ == b.indices_ &&
            a.maps_ == b.maps_ && a.data_ == b.data_ && a.dataBytes_ == b.dataBytes_ &&
-           a.hasDirectory_ == b.hasDirectory_ && a.dir_ == b.dir_;
+           a.hasDirectory_ == b.hasDirectory_ && a.dir_ == b.dir_ && a.indexBits_ == b.indexBits_ &&
+           a.packed_ == b.packed_;
   }
   friend bool operator!=(const EncodedArray& a, const EncodedArray& b) noexcept { return !(a == b); }
 
@@ -579,6 +752,10 @@ class EncodedArray {
   uint64_t dataBytes_ = 0;
   bool hasDirectory_ = false;
   encode::SdagDirectory dir_{};
+  uint64_t identity_ = 0;        // unique per content (build / parse), the key of encode::sdagMemo
+  uint32_t indexBits_ = 0;       // > 0 iff hasDirectory_
+  std::vector<uint8_t> packed_;  // the packed index buffer (indexBits_ > 0) + kTailPadding zero bytes
+  void packIndices();
 };
 
 // Checks that a (parsed, validated) encoded array answers exactly like the flat spec buffers it was stored

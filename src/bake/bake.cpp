@@ -107,6 +107,9 @@ uint8_t fillByte(Format f, State s) {
 // nodes).
 constexpr int64_t kLeafCells = 1024, kNodeCells = 4;
 
+// rect() answers from the pass bits for at most this many rows of texels, from the summed-area table beyond.
+constexpr int64_t kBitRows = 16;
+
 // Texel coordinates at or beyond this magnitude make a triangle unknown (texelFloor clamps at 1e15).
 constexpr double kMaxTexelCoord = 1e14;
 
@@ -147,6 +150,7 @@ struct TriangleClassifier {
   mutable uint64_t work = 0;               // work units done: those spent plus one per leaf sampled
   // Side of a square (cell units) holding a whole wrap period in both axes; infinity when a wrap clamps.
   double periodSide = std::numeric_limits<double>::infinity();
+  int64_t tw = 0, th = 0;  // the mask's size
   void spend(uint64_t units) const noexcept {
     budget = units < budget ? budget - units : 0;
     work += units;
@@ -168,7 +172,23 @@ struct TriangleClassifier {
     return area2 / per * scale * 1.4142135 >= periodSide * (1 + 1e-6) + 1e-6;
   }
 
+  // True when the texels [x0, x1] × [y0, y1] lie inside the texture (no wrapping) and span at most 63 columns.
+  bool bitsHold(int64_t x0, int64_t x1, int64_t y0, int64_t y1) const noexcept {
+    return x0 >= 0 && y0 >= 0 && x1 < tw && y1 < th && x1 - x0 < 63;
+  }
+
   unsigned rect(int64_t i0, int64_t i1, int64_t j0, int64_t j1) const noexcept {
+    if (bitsHold(i0, i1 + ext, j0, j1 + ext) && j1 - j0 < kBitRows) {
+      // The same texels as the summed-area query, from their pass bits row by row.
+      const uint64_t full = (uint64_t(2) << (i1 + ext - i0)) - 1;
+      uint64_t any = 0, all = full;
+      for (int64_t y = j0; y <= j1 + ext; ++y) {
+        const uint64_t b = mask.passBits(uint32_t(i0), uint32_t(y)) & full;
+        any |= b;
+        all &= b;
+      }
+      return (any ? kPass : 0u) | (all != full ? kFail : 0u);
+    }
     const AlphaMask::Count c = mask.count(i0, i1 + ext, j0, j1 + ext);
     return (c.pass > 0 ? kPass : 0u) | (c.pass < c.total ? kFail : 0u);
   }
@@ -298,17 +318,52 @@ struct TriangleClassifier {
   // bilinear function takes its extremes over a convex polygon on the boundary, at a vertex or where its
   // restriction to an edge (a quadratic) is stationary — and widen by m times the gradient bound. Values
   // within 1e-6 of the cutoff stay unknown (sampleAlpha's rounding).
+  // Cell (i, j) of bilinearCells whose corner alphas c00, c10, c01, c11 disagree: its class, or kStop when the
+  // region is surely mixed (the triangle's vertices in the cell, with `acc`, see both classes).
+  static constexpr unsigned kStop = 4;
+  unsigned mixedCell(const double X[3], const double Y[3], int64_t i, int64_t j, float c00, float c10,
+                     float c01, float c11, unsigned acc, float cutoff, double tol) const noexcept {
+    const double m = margin;
+    const double A = c00, B = double(c10) - A, C = double(c01) - A, D = double(c11) - c10 - c01 + A;
+    const double grow = m * (std::fabs(B) + std::fabs(C) + 2 * std::fabs(D) * (1 + 2 * m));
+    double px[3], py[3];
+    for (int k = 0; k < 3; ++k) {
+      px[k] = X[k] - double(i);
+      py[k] = Y[k] - double(j);
+    }
+    // Cheap first: the cell's polynomial over the whole of T (a superset of T's part near the cell),
+    // bounded by its degree-2 Bernstein coefficients on T: the vertex values and, per edge, (f_i + f_j)/2
+    // − D·Δx·Δy/2.
+    double fv[3], lo, hi;
+    for (int k = 0; k < 3; ++k) fv[k] = A + B * px[k] + C * py[k] + D * px[k] * py[k];
+    lo = hi = fv[0];
+    for (int k = 0; k < 3; ++k) {
+      const int k1 = k == 2 ? 0 : k + 1;
+      const double e = (fv[k] + fv[k1]) * 0.5 - D * (px[k1] - px[k]) * (py[k1] - py[k]) * 0.5;
+      lo = std::min(lo, std::min(fv[k], e));
+      hi = std::max(hi, std::max(fv[k], e));
+    }
+    const unsigned cls = decide(lo - grow, hi + grow, cutoff, tol);
+    if (cls != kMixed) return cls;
+    // Vertices of T inside this cell are points of the region where the blend is f itself: if they (with what
+    // other cells showed) see both classes, the region is mixed — no need for the exact bound.
+    unsigned seen = acc;
+    for (int k = 0; k < 3; ++k)
+      if (px[k] >= 0 && px[k] <= 1 && py[k] >= 0 && py[k] <= 1)
+        seen |= fv[k] >= double(cutoff) ? kPass : kFail;
+    if (seen == kMixed) return kStop;
+    return clippedCell(A, B, C, D, px, py, grow, cutoff, tol);
+  }
+
   unsigned bilinearCells(const double X[3], const double Y[3], int64_t j0, int64_t j1) const noexcept {
     const double m = margin;
     const Sampler& smp = mask.sampler();
     const float cutoff = mask.cutoff();
-    const uint32_t tw = mask.width(), th = mask.height();
     const double tol = 1e-6 * std::max(1.0, std::fabs(double(cutoff)));
     unsigned acc = 0;
     for (int64_t j = j0; j <= j1; ++j) {
       double xl, xr;
       if (!slabExtent(X, Y, double(j) - m, double(j + 1) + m, xl, xr)) continue;
-      const uint32_t ya = wrapFast(j, th, smp.wrapT), yb = wrapFast(j + 1, th, smp.wrapT);
       const int64_t a = cellFloor(xl - m), b = cellFloor(xr + m);
       if (b - a >= 2) {
         // A run whose corner texels all agree decides all its cells (each by its four corners) in O(1).
@@ -320,7 +375,29 @@ struct TriangleClassifier {
         }
       }
       spend(uint64_t(b - a + 1));
+      if (bitsHold(a, b + 1, j, j + 1)) {
+        // Inside the texture: corners that agree are seen in the pass bits, without reading the alphas.
+        const uint64_t ra = mask.passBits(uint32_t(a), uint32_t(j)),
+                       rb = mask.passBits(uint32_t(a), uint32_t(j + 1));
+        for (int64_t i = a; i <= b; ++i) {
+          const uint64_t q0 = (ra >> (i - a)) & 3u, q1 = (rb >> (i - a)) & 3u;
+          unsigned cls;
+          if ((q0 & q1) == 3u) {
+            cls = kPass;
+          } else if ((q0 | q1) == 0) {
+            cls = kFail;
+          } else {
+            const uint32_t x = uint32_t(i), y = uint32_t(j);
+            cls = mixedCell(X, Y, i, j, mask.texel(x, y), mask.texel(x + 1, y), mask.texel(x, y + 1),
+                            mask.texel(x + 1, y + 1), acc, cutoff, tol);
+          }
+          acc |= cls;
+          if (acc >= kMixed) return kMixed;
+        }
+        continue;
+      }
       // Cell i's right corners are cell i + 1's left corners: each texel column is read once per row run.
+      const uint32_t ya = wrapFast(j, th, smp.wrapT), yb = wrapFast(j + 1, th, smp.wrapT);
       const uint32_t xa0 = wrapFast(a, tw, smp.wrapS);
       float left0 = mask.texel(xa0, ya), left1 = mask.texel(xa0, yb);
       for (int64_t i = a; i <= b; ++i) {
@@ -330,44 +407,11 @@ struct TriangleClassifier {
         left1 = c11;
         const int passes = alphaTestPasses(c00, cutoff) + alphaTestPasses(c10, cutoff) +
                            alphaTestPasses(c01, cutoff) + alphaTestPasses(c11, cutoff);
-        if (passes == 4 || passes == 0) {
-          acc |= passes ? kPass : kFail;
-          if (acc == kMixed) return kMixed;
-          continue;
-        }
-        const double A = c00, B = double(c10) - A, C = double(c01) - A, D = double(c11) - c10 - c01 + A;
-        const double grow = m * (std::fabs(B) + std::fabs(C) + 2 * std::fabs(D) * (1 + 2 * m));
-        double px[3], py[3];
-        for (int k = 0; k < 3; ++k) {
-          px[k] = X[k] - double(i);
-          py[k] = Y[k] - double(j);
-        }
-        // Cheap first: the cell's polynomial over the whole of T (a superset of T's part near the cell),
-        // bounded by its degree-2 Bernstein coefficients on T: the vertex values and, per edge, (f_i + f_j)/2
-        // − D·Δx·Δy/2.
-        double fv[3], lo, hi;
-        for (int k = 0; k < 3; ++k) fv[k] = A + B * px[k] + C * py[k] + D * px[k] * py[k];
-        lo = hi = fv[0];
-        for (int k = 0; k < 3; ++k) {
-          const int k1 = k == 2 ? 0 : k + 1;
-          const double e = (fv[k] + fv[k1]) * 0.5 - D * (px[k1] - px[k]) * (py[k1] - py[k]) * 0.5;
-          lo = std::min(lo, std::min(fv[k], e));
-          hi = std::max(hi, std::max(fv[k], e));
-        }
-        unsigned cls = decide(lo - grow, hi + grow, cutoff, tol);
-        if (cls == kMixed) {
-          // Vertices of T inside this cell are points of the region where the blend is f itself: if they
-          // (with what other cells showed) see both classes, the region is mixed — no need for the exact
-          // bound.
-          unsigned seen = acc;
-          for (int k = 0; k < 3; ++k)
-            if (px[k] >= 0 && px[k] <= 1 && py[k] >= 0 && py[k] <= 1)
-              seen |= fv[k] >= double(cutoff) ? kPass : kFail;
-          if (seen == kMixed) return kMixed;
-        }
-        if (cls == kMixed) cls = clippedCell(A, B, C, D, px, py, grow, cutoff, tol);
+        const unsigned cls = passes == 4   ? kPass
+                             : passes == 0 ? kFail
+                                           : mixedCell(X, Y, i, j, c00, c10, c01, c11, acc, cutoff, tol);
         acc |= cls;
-        if (acc == kMixed) return kMixed;
+        if (acc >= kMixed) return kMixed;
       }
     }
     return acc ? acc : kMixed;
@@ -386,7 +430,6 @@ struct TriangleClassifier {
   // only for the majority of unknown micro-triangles, which needs no exactness).
   bool passesAt(double x, double y) const noexcept {
     const Sampler& smp = mask.sampler();
-    const uint32_t tw = mask.width(), th = mask.height();
     const int64_t i = cellFloor(x), j = cellFloor(y);
     const uint32_t xa = wrapFast(i, tw, smp.wrapS), ya = wrapFast(j, th, smp.wrapT);
     if (shift == 0) return alphaTestPasses(mask.texel(xa, ya), mask.cutoff());
@@ -443,22 +486,23 @@ struct TriangleClassifier {
   // when first needed: vertex k of child c is point kLeafVertex[c][k] (a, b, c, ab, ac, bc).
   static constexpr uint8_t kLeafVertex[4][3] = {{0, 3, 4}, {4, 5, 3}, {3, 1, 5}, {5, 4, 2}};
   static constexpr uint8_t kChildOf[6] = {0, 2, 3, 0, 0, 1}, kSlotOf[6] = {0, 1, 2, 1, 2, 1};
-  void leaves(const double cX[4][3], const double cY[4][3], uint32_t prefix) noexcept {
-    unsigned sampled = 0, passing = 0;  // bit p: point p sampled / passes
+  // `vb`: bit k is the alpha test at the parent's vertex k (points 0..2), sampled by the parent's parent.
+  void leaves(const double cX[4][3], const double cY[4][3], uint32_t prefix, unsigned vb) noexcept {
     work += 4;
+    // Every sample first, without branching on any (they are cheap; mispredicted branches are not): the 6 vertices
+    // (bit p: point p passes) and each leaf's 4 child centroids.
+    unsigned vpass = vb & 7u;
+    for (unsigned p = 3; p < 6; ++p)
+      vpass |= unsigned(passesAt(cX[kChildOf[p]][kSlotOf[p]], cY[kChildOf[p]][kSlotOf[p]])) << p;
+    int pass[4];
+    for (uint32_t c = 0; c < 4; ++c) pass[c] = centroidPasses(cX[c], cY[c]);
     for (uint32_t c = 0; c < 4; ++c) {
       const uint32_t index = prefix * 4 + c;
-      const int pass = centroidPasses(cX[c], cY[c]);
-      bool agree = pass == 0 || pass == 4;
-      for (int k = 0; k < 3 && agree; ++k) {
-        const unsigned p = kLeafVertex[c][k], bit = 1u << p;
-        if (!(sampled & bit)) {
-          sampled |= bit;
-          if (passesAt(cX[kChildOf[p]][kSlotOf[p]], cY[kChildOf[p]][kSlotOf[p]])) passing |= bit;
-        }
-        agree = ((passing & bit) != 0) == (pass == 4);
-      }
-      if (agree) {
+      const unsigned vbits = ((vpass >> kLeafVertex[c][0]) & 1u) |
+                             (((vpass >> kLeafVertex[c][1]) & 1u) << 1) |
+                             (((vpass >> kLeafVertex[c][2]) & 1u) << 2);
+      // Witnesses agree: all 7 pass or all 7 fail.
+      if ((pass[c] == 4 && vbits == 7u) || (pass[c] == 0 && vbits == 0)) {
         const unsigned r = region(cX[c], cY[c], kLeafCells);
         if (r == kPass || r == kFail) {
           fill(index, 1, r == kPass ? State::Opaque : State::Transparent);
@@ -466,12 +510,14 @@ struct TriangleClassifier {
         }
       }
       ++unknown;
-      fill(index, 1, unknownFrom(pass, cX[c], cY[c]));
+      fill(index, 1, unknownFrom(pass[c], cX[c], cY[c]));
     }
   }
 
-  // Node `prefix` at `depth` with cell-space vertices (X, Y) whose region class is `r`.
-  void node(const double X[3], const double Y[3], uint32_t depth, uint32_t prefix, unsigned r) noexcept {
+  // Node `prefix` at `depth` with cell-space vertices (X, Y) whose region class is `r`; bit k of `vb` is the alpha
+  // test at vertex k (passesAt(X[k], Y[k]), taken once where the vertex was first a witness).
+  void node(const double X[3], const double Y[3], uint32_t depth, uint32_t prefix, unsigned r,
+            unsigned vb) noexcept {
     const uint32_t span = 1u << (2 * (level - depth));
     const uint32_t start = prefix * span;
     if (r == kPass) return fill(start, span, State::Opaque);
@@ -492,17 +538,20 @@ struct TriangleClassifier {
     // Child order of the bird curve (see indexToMicroTriangle).
     const double cX[4][3] = {{ax, abx, acx}, {acx, bcx, abx}, {abx, bx, bcx}, {bcx, acx, cx}};
     const double cY[4][3] = {{ay, aby, acy}, {acy, bcy, aby}, {aby, by, bcy}, {bcy, acy, cy}};
-    if (depth + 1 == level) return leaves(cX, cY, prefix);
+    if (depth + 1 == level) return leaves(cX, cY, prefix, vb);
     // Witnesses as in leaves(): a child whose vertices (the points a, b, c, ab, ac, bc of this node) and centroid
     // see both classes has a mixed region, which region() would report too; it is subdivided without the test.
     bool v[6];
-    for (int p = 0; p < 6; ++p) v[p] = passesAt(cX[kChildOf[p]][kSlotOf[p]], cY[kChildOf[p]][kSlotOf[p]]);
+    for (int p = 0; p < 3; ++p) v[p] = (vb >> p) & 1u;
+    for (int p = 3; p < 6; ++p) v[p] = passesAt(cX[kChildOf[p]][kSlotOf[p]], cY[kChildOf[p]][kSlotOf[p]]);
     for (uint32_t c = 0; c < 4; ++c) {
       const bool v0 = v[kLeafVertex[c][0]];
       const bool mixed =
           v[kLeafVertex[c][1]] != v0 || v[kLeafVertex[c][2]] != v0 ||
           passesAt((cX[c][0] + cX[c][1] + cX[c][2]) / 3, (cY[c][0] + cY[c][1] + cY[c][2]) / 3) != v0;
-      node(cX[c], cY[c], depth + 1, prefix * 4 + c, mixed ? kMixed : region(cX[c], cY[c], kNodeCells));
+      const unsigned cvb = unsigned(v[kLeafVertex[c][0]]) | unsigned(v[kLeafVertex[c][1]]) << 1 |
+                           unsigned(v[kLeafVertex[c][2]]) << 2;
+      node(cX[c], cY[c], depth + 1, prefix * 4 + c, mixed ? kMixed : region(cX[c], cY[c], kNodeCells), cvb);
     }
   }
 };
@@ -557,6 +606,8 @@ TriangleClassifier makeClassifier(const AlphaMask& mask, double margin, uint32_t
   c.format = format;
   c.unknownAs = unknownAs;
   c.budget = workBudget(level, mask.width(), mask.height());
+  c.tw = mask.width();
+  c.th = mask.height();
   const Sampler& smp = mask.sampler();
   if (smp.wrapS != Wrap::ClampToEdge && smp.wrapT != Wrap::ClampToEdge)
     c.periodSide = std::max(double(mask.width()) * (smp.wrapS == Wrap::MirroredRepeat ? 2 : 1),
@@ -599,7 +650,9 @@ void classify(const AlphaMask& mask, const Prepared& p, uint32_t level, Format f
   // as is.
   if (out.map.level() != level || out.map.format() != format) out.map = Micromap(level, format);
   c.bytes = out.map.bytes().data();
-  c.node(X, Y, 0, 0, r);
+  unsigned vb = 0;
+  for (int k = 0; k < 3; ++k) vb |= unsigned(c.passesAt(X[k], Y[k])) << k;
+  c.node(X, Y, 0, 0, r, vb);
   out.unknown = c.unknown;
   out.work = c.work + 1;
 }
@@ -1118,13 +1171,18 @@ Result<SceneBake> bakeCore(const CoreInputs& ci, const BakeOptions& o) {
 void AlphaMask::build() {
   const size_t stride = size_t(w_) + 1;
   sat_.assign(stride * (size_t(h_) + 1), 0);
+  words_ = size_t(w_) / 64 + 1;
+  bits_.assign(words_ * h_, 0);
   for (uint32_t y = 0; y < h_; ++y) {
     uint32_t row = 0;
     const uint32_t* above = sat_.data() + size_t(y) * stride;
     uint32_t* cur = sat_.data() + (size_t(y) + 1) * stride;
+    uint64_t* bits = bits_.data() + size_t(y) * words_;
     for (uint32_t x = 0; x < w_; ++x) {
-      row += alphaTestPasses(texel(x, y), cutoff_) ? 1u : 0u;
+      const bool pass = alphaTestPasses(texel(x, y), cutoff_);
+      row += pass ? 1u : 0u;
       cur[x + 1] = above[x + 1] + row;
+      bits[x >> 6] |= uint64_t(pass) << (x & 63u);
     }
   }
 }

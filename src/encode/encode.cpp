@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <map>
 #include <tuple>
 #include <unordered_map>
@@ -976,9 +977,15 @@ uint32_t getU32(const uint8_t* p) {
   return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24;
 }
 
+uint64_t newIdentity() {
+  static std::atomic<uint64_t> next{1};
+  return next.fetch_add(1, std::memory_order_relaxed);
+}
+
 constexpr uint32_t kMagic = 0x434e4553;   // "SENC"
 constexpr uint8_t kVersion = 1;           // arrays without the sdag directory
-constexpr uint8_t kVersionDirectory = 2;  // arrays with it (the 80-byte directory with reference tiers)
+constexpr uint8_t kVersionTiers = 2;      // the old sdag layout: directory with tiers, 16/32-bit index buffer
+constexpr uint8_t kVersionDirectory = 3;  // arrays with it (directory with tiers + the packed index buffer)
 
 }  // namespace
 
@@ -1130,7 +1137,12 @@ Result<EncodedArray> EncodedArray::build(const OmmArray& array, Encoding encodin
       if (mixed.data.size() < best.data.size()) best = std::move(mixed);
       uint64_t plainBytes = 0;
       for (const auto& o : plain) plainBytes += o.blob.size();
-      if (plainBytes <= best.data.size()) best = SdagBuild{{}, {}, std::move(plain), {}, false};
+      // (with the directory the index buffer is packed: compare whole arrays)
+      const uint64_t specIndex = uint64_t(array.indices.size()) * uint64_t(out.indexType_);
+      const uint64_t packedIndex =
+          encode::packedIndexBytes(array.indices.size(), encode::sdagIndexBits(mapCount));
+      if (plainBytes + specIndex <= best.data.size() + packedIndex)
+        best = SdagBuild{{}, {}, std::move(plain), {}, false};
     }
     data = std::move(best.data);
     offsets = std::move(best.offsets);
@@ -1149,7 +1161,7 @@ Result<EncodedArray> EncodedArray::build(const OmmArray& array, Encoding encodin
   }
   if (data.size() > UINT32_MAX - encode::kTailPadding)
     return makeError(ErrorCode::LimitExceeded, "encoded micromap data exceeds 4 GiB");
-  bool anyTree = encoding != Encoding::Flat && encoding != Encoding::Hybrid;
+  bool anyTree = (encoding != Encoding::Flat && encoding != Encoding::Hybrid) || out.hasDirectory_;
   for (uint32_t i : mapOfDescriptor) {
     out.maps_.push_back(
         EncodedMapDesc{offsets[i], uint8_t(maps[i].level()), uint8_t(maps[i].format()), kinds[i].kind, 0});
@@ -1158,7 +1170,20 @@ Result<EncodedArray> EncodedArray::build(const OmmArray& array, Encoding encodin
   out.dataBytes_ = data.size();
   out.data_ = std::move(data);
   out.data_.resize(out.data_.size() + (anyTree ? encode::kTailPadding : 0), 0);
+  if (out.hasDirectory_) out.packIndices();
+  out.identity_ = newIdentity();
   return out;
+}
+
+void EncodedArray::packIndices() {
+  indexBits_ = encode::sdagIndexBits(maps_.size());
+  packed_.assign(encode::packedIndexBytes(indices_.size(), indexBits_) + encode::kTailPadding, 0);
+  const uint64_t mask = (uint64_t(1) << indexBits_) - 1u;
+  for (size_t t = 0; t < indices_.size(); ++t) {
+    const uint64_t v = uint64_t(int64_t(indices_[t])) & mask, pos = uint64_t(t) * indexBits_;
+    for (uint32_t k = 0; k < indexBits_; ++k)
+      if ((v >> k) & 1u) packed_[(pos + k) >> 3] |= uint8_t(1u << ((pos + k) & 7u));
+  }
 }
 
 Micromap EncodedArray::decodeMap(uint32_t map) const {
@@ -1187,12 +1212,14 @@ std::vector<uint8_t> EncodedArray::serialize() const {
   putU32(out, kMagic);
   out.push_back(hasDirectory_ ? kVersionDirectory : kVersion);
   out.push_back(uint8_t(encoding_));
-  out.push_back(uint8_t(indexType_));
+  out.push_back(hasDirectory_ ? uint8_t(indexBits_) : uint8_t(indexType_));
   out.push_back(hasDirectory_ ? 1 : 0);
   putU32(out, uint32_t(indices_.size()));
   putU32(out, uint32_t(maps_.size()));
   putU32(out, uint32_t(dataBytes_));
+  if (hasDirectory_) out.insert(out.end(), packed_.begin(), packed_.end() - encode::kTailPadding);
   for (int32_t i : indices_) {
+    if (hasDirectory_) break;
     if (indexType_ == IndexType::UInt32) {
       putU32(out, uint32_t(i));
     } else {
@@ -1217,6 +1244,12 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
   if (bytes.size() < encode::kArrayHeaderBytes) return bad("encoded array header is truncated");
   const uint8_t* p = bytes.data();
   if (getU32(p) != kMagic) return bad("not an encoded micromap array (bad magic)");
+  if (p[4] == kVersionTiers)
+    return makeError(
+        ErrorCode::UnsupportedFormat,
+        prefix +
+            "encoded array version 2 (the sdag layout with a 16/32-bit index buffer) is no longer "
+            "supported (encode the micromaps again)");
   if (p[4] != kVersion && p[4] != kVersionDirectory)
     return makeError(ErrorCode::UnsupportedFormat,
                      prefix + "encoded array version " + std::to_string(p[4]) + " is not supported");
@@ -1226,19 +1259,25 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
                          "encoded array version 1 with the old sdag layout is no longer supported "
                          "(encode the micromaps again)");
   if (p[4] == kVersionDirectory && p[7] != 1)
-    return bad("encoded array version 2 without the sdag directory");
+    return bad("encoded array version 3 without the sdag directory");
   if (p[5] >= kEncodingCount) return bad("unknown encoding id " + std::to_string(p[5]));
-  if (p[6] != 2 && p[6] != 4) return bad("index size must be 2 or 4 bytes");
+  const bool packed = p[4] == kVersionDirectory;
+  if (!packed && p[6] != 2 && p[6] != 4) return bad("index size must be 2 or 4 bytes");
   const Encoding enc = Encoding(p[5]);
   if (p[7] > 1 || (p[7] == 1) != (enc == Encoding::Sdag || (enc == Encoding::Hybrid && p[7] == 1)))
     return bad("bad flags byte (the directory flag is set for sdag, optional for hybrid)");
   EncodedArray out;
   out.encoding_ = enc;
-  out.indexType_ = IndexType(p[6]);
+  out.indexType_ = packed ? IndexType::UInt16 : IndexType(p[6]);
   out.hasDirectory_ = p[7] == 1;
   const uint64_t triangles = getU32(p + 8), mapCount = getU32(p + 12), dataBytes = getU32(p + 16);
+  if (packed && p[6] != encode::sdagIndexBits(mapCount))
+    return bad("packed index width " + std::to_string(p[6]) + " bits, expected " +
+               std::to_string(encode::sdagIndexBits(mapCount)) + " for " + std::to_string(mapCount) +
+               " micromaps");
+  const uint64_t indexBytes = packed ? encode::packedIndexBytes(triangles, p[6]) : triangles * p[6];
   const uint64_t fixed =
-      encode::kArrayHeaderBytes + triangles * p[6] + mapCount * encode::kDescriptorBytes + dataBytes;
+      encode::kArrayHeaderBytes + indexBytes + mapCount * encode::kDescriptorBytes + dataBytes;
   if (fixed > bytes.size()) return bad("encoded array is truncated (declares more bytes than present)");
   const uint64_t padding = bytes.size() - fixed;
   if (padding != 0 && padding != encode::kTailPadding) return bad("encoded array has trailing bytes");
@@ -1247,9 +1286,20 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
   if (dagArray && padding != encode::kTailPadding) return bad("encoded array tail padding is wrong");
   const uint8_t* q = p + encode::kArrayHeaderBytes;
   out.indices_.resize(triangles);
+  if (packed) {
+    out.indexBits_ = p[6];
+    out.packed_.assign(q, q + indexBytes);
+    out.packed_.resize(indexBytes + encode::kTailPadding, 0);
+    const uint64_t usedBits = triangles * p[6];
+    if (usedBits % 8 != 0 && (q[indexBytes - 1] >> (usedBits % 8)) != 0)
+      return bad("packed index buffer has nonzero bits after the last triangle");
+  }
   for (uint64_t t = 0; t < triangles; ++t) {
     int32_t v;
-    if (out.indexType_ == IndexType::UInt32) {
+    if (packed) {
+      v = encode::packedIndex(out.packed_.data(), out.indexBits_, uint32_t(t));
+      if (v >= 0 && v > 0xfffb) out.indexType_ = IndexType::UInt32;
+    } else if (out.indexType_ == IndexType::UInt32) {
       v = int32_t(getU32(q));
       q += 4;
     } else {
@@ -1261,6 +1311,7 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
       return bad("triangle " + std::to_string(t) + " has index " + std::to_string(v) + " out of range");
     out.indices_[t] = v;
   }
+  if (packed) q += indexBytes;
   const uint8_t* data = q + mapCount * encode::kDescriptorBytes;
   if (out.hasDirectory_) {
     if (dataBytes < encode::kSdagDirectoryBytes) return bad("sdag directory is truncated");
@@ -1328,12 +1379,13 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
     out.maps_[m] = d;
   }
   const uint64_t wantPadding =
-      anyTree || (enc != Encoding::Flat && enc != Encoding::Hybrid) ? encode::kTailPadding : 0;
+      anyTree || dagArray || (enc != Encoding::Flat && enc != Encoding::Hybrid) ? encode::kTailPadding : 0;
   if (padding != wantPadding) return bad("encoded array tail padding is wrong");
   out.data_.assign(data, data + dataBytes + padding);
   for (uint64_t i = dataBytes; i < out.data_.size(); ++i)
     if (out.data_[i] != 0) return bad("encoded array tail padding is not zero");
   out.dataBytes_ = dataBytes;
+  out.identity_ = newIdentity();
   return out;
 }
 

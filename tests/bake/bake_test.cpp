@@ -4,6 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
 #include <random>
 
 #include "bake/bake_test_util.h"
@@ -41,6 +44,67 @@ TEST(AlphaMask, CountMatchesBruteForceForEveryWrap) {
 
 // A hard vertical edge between texel columns 31 and 32 (opaque left). Exactly the micro-triangles whose
 // texel-space x-extent reaches across the edge are unknown; all others are known.
+// The pass bits against the alpha test of every texel, for widths around the 64-bit word size.
+TEST(AlphaMask, PassBitsMatchTheAlphaTest) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> d(0.f, 1.f);
+  for (uint32_t w : {1u, 3u, 63u, 64u, 65u, 127u, 128u, 130u}) {
+    const uint32_t h = 3;
+    std::vector<float> a(size_t(w) * h);
+    for (float& v : a) v = d(rng);
+    const AlphaTexture tex = makeTexture(w, h, [&](uint32_t x, uint32_t y) { return a[size_t(y) * w + x]; });
+    const AlphaMask mask(tex, Sampler{Wrap::Repeat, Wrap::Repeat, Filter::Linear}, 0.5f);
+    for (uint32_t y = 0; y < h; ++y)
+      for (uint32_t x = 0; x < w; ++x) {
+        const uint64_t bits = mask.passBits(x, y);
+        for (uint32_t k = 0; k < 64 && x + k < w; ++k)
+          ASSERT_EQ((bits >> k) & 1u, uint64_t(alphaTestPasses(tex.at(x + k, y), 0.5f)))
+              << w << " " << x << "+" << k;
+      }
+  }
+}
+
+// Inside the texture the classifier reads pass bits (rect, the cells' corners); across a repeat seam it reads the
+// summed-area table and wraps. A triangle and its copy one period to the left (same margin: same magnitude bracket,
+// exact float UVs) must get identical maps.
+TEST(Classifier, PassBitsAndWrappedPathsAgree) {
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<float> d(0.f, 1.f);
+  std::uniform_int_distribution<int> qu(19661, 45875), qv(6554, 52428);  // u in [0.3, 0.7], v in [0.1, 0.8]
+  for (Filter f : {Filter::Linear, Filter::Nearest})
+    for (uint32_t size : {40u, 96u}) {
+      // Blobs with long edges (as leaf textures) plus some noise.
+      const AlphaTexture tex = makeTexture(size, size, [&](uint32_t x, uint32_t y) {
+        const double v = std::sin(x * 0.37) * std::cos(y * 0.23) + 0.3 * d(rng) - 0.1;
+        return std::clamp(0.5 + v, 0.0, 1.0);
+      });
+      const AlphaMask mask(tex, Sampler{Wrap::Repeat, Wrap::Repeat, f}, 0.5f);
+      int compared = 0;
+      for (int t = 0; t < 200; ++t) {
+        // Multiples of 2^-16, so u − 1 is exact.
+        std::array<float, 2> p[3], s[3];
+        double X[3], Y[3], SX[3];
+        for (int k = 0; k < 3; ++k) {
+          p[k] = {float(qu(rng)) * 0x1p-16f, float(qv(rng)) * 0x1p-16f};
+          s[k] = {p[k][0] - 1.0f, p[k][1]};
+          X[k] = double(p[k][0]) * size;
+          SX[k] = double(s[k][0]) * size;
+          Y[k] = double(p[k][1]) * size;
+        }
+        if (bakeMarginTexels(X, Y) != bakeMarginTexels(SX, Y)) continue;  // another magnitude bracket
+        const uint32_t level = 2 + uint32_t(t % 5);
+        const TriangleBake a = bakeTriangle(mask, p[0], p[1], p[2], level, Format::FourState);
+        const TriangleBake b = bakeTriangle(mask, s[0], s[1], s[2], level, Format::FourState);
+        ASSERT_EQ(a.unknownCount, b.unknownCount) << t;
+        ASSERT_TRUE(a.map.bytes().size() == b.map.bytes().size() &&
+                    std::equal(a.map.bytes().begin(), a.map.bytes().end(), b.map.bytes().begin()))
+            << "triangle " << t << " level " << level;
+        ++compared;
+      }
+      EXPECT_GT(compared, 50);
+    }
+}
+
 TEST(Tightness, HalfPlaneNearestLeavesOnlyStraddlersUnknown) {
   const AlphaTexture tex = makeTexture(64, 64, [](uint32_t x, uint32_t) { return x < 32 ? 1.0 : 0.0; });
   const AlphaMask mask(tex, Sampler{Wrap::ClampToEdge, Wrap::ClampToEdge, Filter::Nearest}, 0.5f);

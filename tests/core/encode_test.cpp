@@ -318,7 +318,11 @@ TYPED_TEST(EncodeTest, SizesEqualTheFormulas) {
   ASSERT_EQ(e.mapCount(), maps.size());
   if (isDag(TestFixture::kE)) {  // one shared DAG: only the framing has a closed form (see DagSizes tests)
     EXPECT_EQ(e.paddingBytes(), encode::kTailPadding);
-    EXPECT_EQ(e.byteSize(), 20u + 2u * oracle.indices.size() + 8u * maps.size() + e.dataBytes() + 8u);
+    const uint64_t indexBytes = e.hasDirectory()
+                                    ? (oracle.indices.size() * encode::sdagIndexBits(maps.size()) + 7) / 8
+                                    : 2u * oracle.indices.size();
+    EXPECT_EQ(e.indexBufferBytes(), indexBytes);
+    EXPECT_EQ(e.byteSize(), 20u + indexBytes + 8u * maps.size() + e.dataBytes() + 8u);
     EXPECT_EQ(e.serialize().size(), e.byteSize());
     return;
   }
@@ -328,8 +332,10 @@ TYPED_TEST(EncodeTest, SizesEqualTheFormulas) {
     for (const Micromap& m : maps)
       plain += std::min(
           {formulaBytes(MapKind::Flat, m), formulaBytes(MapKind::Dfs, m), formulaBytes(MapKind::Rank, m)});
-    EXPECT_LT(e.dataBytes(), plain);
-    EXPECT_EQ(e.byteSize(), 20u + 2u * oracle.indices.size() + 8u * maps.size() + e.dataBytes() + 8u);
+    // (with the directory the index buffer is packed: the data + index bytes are compared)
+    EXPECT_LT(e.dataBytes() + e.indexBufferBytes(), plain + 2u * oracle.indices.size());
+    EXPECT_EQ(e.indexBufferBytes(), (oracle.indices.size() * encode::sdagIndexBits(maps.size()) + 7) / 8);
+    EXPECT_EQ(e.byteSize(), 20u + e.indexBufferBytes() + 8u * maps.size() + e.dataBytes() + 8u);
     return;
   }
   uint64_t total = 0;
@@ -434,9 +440,14 @@ TYPED_TEST(EncodeTest, CorruptBytesRejected) {
   b[8] = 0xff, b[9] = 0xff, b[10] = 0xff, b[11] = 0x7f;  // triangle count far beyond the bytes
   expectReject(b, "triangle count");
   b = good;
-  b[20] = 7;  // index 7 with 3 maps
+  if (e.indexBits() != 0) {
+    ASSERT_EQ(e.indexBits(), 3u);
+    b[20] = uint8_t((b[20] & ~7u) | 3u);  // packed value 3 with 3 maps (4..7 are the specials)
+  } else {
+    b[20] = 7;  // index 7 with 3 maps
+  }
   expectReject(b, "index");
-  const size_t desc = 20 + 2 * oracle.indices.size();
+  const size_t desc = 20 + e.indexBufferBytes();
   b = good;
   b[desc + 4] = 13;  // level 13
   expectReject(b, "level");
@@ -526,7 +537,13 @@ TEST(EncodeDag, WorkedExampleLayouts) {
   EXPECT_EQ(sdag.data()[80], 0xff);
   EXPECT_EQ(sdag.data()[81], 0x00);
   EXPECT_EQ(sdag.data()[82], 0x2c);
-  EXPECT_EQ(sdag.serialize()[4], 2u);  // arrays with the directory are version 2
+  EXPECT_EQ(sdag.serialize()[4],
+            3u);  // arrays with the directory (and the packed index buffer) are version 3
+  EXPECT_EQ(sdag.serialize()[6], 3u);  // one map: k = bits for 0 .. 1 + 3
+  // triangles 0..4 → map 0, then -1..-4 as 7, 6, 5, 4 (3 bits each): 0x4bb8
+  EXPECT_EQ(sdag.serialize()[20], 0xb8);
+  EXPECT_EQ(sdag.serialize()[21], 0x4b);
+  EXPECT_EQ(sdag.byteSize(), 20u + 2u + 8u + 83u + 8u);
   EXPECT_EQ(sdag.maps()[0].offset, 82u);
   EXPECT_EQ(sdag.maps()[0].kind, MapKind::Sdag);
   for (uint32_t i = 0; i < 64; ++i) {
@@ -566,6 +583,55 @@ TEST(EncodeDag, WorkedExampleTieredReferences) {
   ASSERT_FALSE(old);
   EXPECT_EQ(old.error().code, ErrorCode::UnsupportedFormat);
   EXPECT_NE(old.error().message.find("old sdag layout"), std::string::npos) << old.error().message;
+  // Version 2 (the tiered directory with a 16/32-bit index buffer) is refused clearly too.
+  bytes[4] = 2;
+  const auto v2 = EncodedArray::parse(bytes, "v2.somm");
+  ASSERT_FALSE(v2);
+  EXPECT_EQ(v2.error().code, ErrorCode::UnsupportedFormat);
+  EXPECT_NE(v2.error().message.find("version 2"), std::string::npos) << v2.error().message;
+}
+
+// The packed index buffer of sdag arrays: k = sdagIndexBits(M) bits per triangle, specials as the k-bit two's
+// complement; exact bits, round trip through serialize / parse, and every special value.
+TEST(EncodeDag, PackedIndexBuffer) {
+  EXPECT_EQ(encode::sdagIndexBits(0), 2u);
+  EXPECT_EQ(encode::sdagIndexBits(1), 3u);
+  EXPECT_EQ(encode::sdagIndexBits(4), 3u);
+  EXPECT_EQ(encode::sdagIndexBits(5), 4u);
+  EXPECT_EQ(encode::sdagIndexBits(852), 10u);
+  EXPECT_EQ(encode::sdagIndexBits(1020), 10u);
+  EXPECT_EQ(encode::sdagIndexBits(1021), 11u);
+  EXPECT_EQ(encode::sdagIndexBits(uint64_t(INT32_MAX)), 32u);
+  Micromap a(2, Format::FourState), b(3, Format::FourState);
+  for (uint32_t i = 0; i < 16; ++i) a.set(i, State(i & 3));
+  for (uint32_t i = 0; i < 64; ++i) b.set(i, State((i >> 2) & 3));
+  OmmArray arr = arrayOf({a, b});
+  arr.indices = {1, -1, 0, -2, -3, -4, 1, 0, 1};
+  const EncodedArray e = EncodedArray::build(arr, Encoding::Sdag).value();
+  ASSERT_EQ(e.indexBits(), 3u);  // M = 2: values 0, 1 and 4..7 for -4..-1
+  const std::vector<uint8_t> bytes = e.serialize();
+  // values 1 7 0 6 5 4 1 0 1, 3 bits each from bit 0
+  uint64_t want = 0;
+  const uint32_t vals[9] = {1, 7, 0, 6, 5, 4, 1, 0, 1};
+  for (uint32_t t = 0; t < 9; ++t) want |= uint64_t(vals[t]) << (3 * t);
+  ASSERT_EQ(e.indexBufferBytes(), 4u);
+  uint64_t got = 0;
+  for (uint32_t i = 0; i < 4; ++i) got |= uint64_t(bytes[20 + i]) << (8 * i);
+  EXPECT_EQ(got, want);
+  for (uint32_t t = 0; t < 9; ++t) EXPECT_EQ(e.stateAs<Encoding::Sdag>(t, 5), arr.state(t, 5)) << t;
+  const EncodedArray back = EncodedArray::parse(bytes).value();
+  EXPECT_EQ(back, e);
+  EXPECT_EQ(std::vector<int32_t>(back.indices().begin(), back.indices().end()), arr.indices);
+  // A value between M and 2^k - 4 is out of range; stray bits after the last triangle are refused.
+  std::vector<uint8_t> badValue = bytes;
+  badValue[20] = uint8_t((badValue[20] & ~7u) | 3u);
+  EXPECT_FALSE(EncodedArray::parse(badValue));
+  std::vector<uint8_t> stray = bytes;
+  stray[23] |= 0x80;
+  EXPECT_FALSE(EncodedArray::parse(stray));
+  std::vector<uint8_t> width = bytes;
+  width[6] = 4;
+  EXPECT_FALSE(EncodedArray::parse(width));
 }
 
 // Identical subtrees of different maps are stored once: a second map that differs from the first in one
@@ -630,6 +696,37 @@ TEST(EncodeNames, ParseLists) {
   EXPECT_FALSE(parseEncodingList("rank,,flat").ok());
   EXPECT_FALSE(parseEncodingList("zip").ok());
   for (Encoding e : kAllEncodings) EXPECT_EQ(parseEncodingName(encodingName(e)), e);
+}
+
+}  // namespace
+}  // namespace somm
+
+namespace somm {
+namespace {
+
+// The per-thread memo of the sdag walk is keyed by the array's identity: two arrays with the same layout (same
+// root offsets, levels and index prefixes) but different states, looked up alternately, each answer as flat;
+// a copy answers as its original, and a parsed array gets its own identity.
+TEST(EncodeDag, WalkMemoNeverAnswersForOtherBytes) {
+  for (Format f : {Format::TwoState, Format::FourState})
+    for (uint32_t level : {6u, 7u, 8u}) {
+      const OmmArray a = arrayOf({makeMap(Pattern::Leaf, level, f, 1)});
+      OmmArray b = a;
+      for (uint8_t& byte : b.data) byte = uint8_t(~byte);  // every state changes (4-state: 0<->3, 1<->2)
+      const EncodedArray ea = EncodedArray::build(a, Encoding::Sdag).value();
+      const EncodedArray eb = EncodedArray::build(b, Encoding::Sdag).value();
+      ASSERT_NE(ea.identity(), eb.identity());
+      const EncodedArray copy = ea;
+      const EncodedArray parsed = EncodedArray::parse(eb.serialize()).value();
+      EXPECT_EQ(copy.identity(), ea.identity());
+      EXPECT_NE(parsed.identity(), eb.identity());
+      for (uint32_t i = 0; i < microTriangleCount(level); i += 3) {
+        ASSERT_EQ(ea.state(0, i), a.state(0, i)) << level << " " << i;
+        ASSERT_EQ(eb.state(0, i), b.state(0, i)) << level << " " << i;
+        ASSERT_EQ(copy.state(0, i), a.state(0, i)) << level << " " << i;
+        ASSERT_EQ(parsed.state(0, i), b.state(0, i)) << level << " " << i;
+      }
+    }
 }
 
 }  // namespace

@@ -124,10 +124,19 @@ TEST(ShaderConstants, ArrayHeaderFieldsWhereTheShaderReadsThem) {
       const std::vector<uint8_t> b = a->serialize();
       EXPECT_EQ(le32(b, 0), c.at("SOMM_ARRAY_MAGIC")) << file;
       EXPECT_EQ(b[5], uint8_t(e));
-      EXPECT_EQ(b[6], uint8_t(a->indexType()));
+      // Byte 7 bit 0 (the sdag directory): byte 6 is the packed index width k, the buffer ceil(T·k / 8) bytes.
+      const bool packed = (b[7] & 1u) != 0;
+      EXPECT_EQ(packed, a->hasDirectory());
+      EXPECT_EQ(b[4], packed ? 3u : 1u);
+      EXPECT_EQ(b[6], packed ? uint8_t(a->indexBits()) : uint8_t(a->indexType()));
+      if (packed) {
+        EXPECT_EQ(a->indexBits(), somm::encode::sdagIndexBits(a->mapCount()));
+      }
       EXPECT_EQ(le32(b, 8), a->triangleCount());
       EXPECT_EQ(le32(b, 12), a->mapCount());
-      const size_t desc = c.at("SOMM_ARRAY_HEADER_BYTES") + size_t(a->triangleCount()) * b[6];
+      const size_t desc =
+          c.at("SOMM_ARRAY_HEADER_BYTES") +
+          (packed ? (size_t(a->triangleCount()) * b[6] + 7) / 8 : size_t(a->triangleCount()) * b[6]);
       for (uint32_t m = 0; m < a->mapCount(); ++m) {
         const size_t d = desc + m * c.at("SOMM_DESCRIPTOR_BYTES");
         EXPECT_EQ(le32(b, d), a->maps()[m].offset);

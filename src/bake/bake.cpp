@@ -1172,7 +1172,8 @@ void AlphaMask::build() {
   const size_t stride = size_t(w_) + 1;
   sat_.assign(stride * (size_t(h_) + 1), 0);
   words_ = size_t(w_) / 64 + 1;
-  bits_.assign(words_ * h_, 0);
+  // One word of padding: passBits(x, y) reads the word after x's, which for the last row is past the rows.
+  bits_.assign(words_ * h_ + 1, 0);
   for (uint32_t y = 0; y < h_; ++y) {
     uint32_t row = 0;
     const uint32_t* above = sat_.data() + size_t(y) * stride;

@@ -129,6 +129,29 @@ std::vector<uint8_t> padPalette(const uint8_t* p, size_t n) {
   return {};
 }
 
+// stb_image copies every IDAT chunk into a buffer it allocates on the first non-empty one: an empty IDAT before it
+// becomes memcpy(NULL, ..., 0), undefined behaviour (found by fuzz_image). Empty IDAT chunks carry no data, so a copy
+// without them decodes to the same image. Empty when there is nothing to drop (or not a PNG).
+std::vector<uint8_t> dropEmptyIdat(const uint8_t* p, size_t n) {
+  // Called after pngChunkProblem: every chunk fits.
+  static const uint8_t sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (n < 8 || std::memcmp(p, sig, 8) != 0) return {};
+  std::vector<uint8_t> out;
+  size_t i = 8, copied = 0;
+  while (n - i >= 12) {
+    const uint32_t len = be32(p + i);
+    if (len == 0 && std::memcmp(p + i + 4, "IDAT", 4) == 0) {
+      out.insert(out.end(), p + copied, p + i);
+      copied = i + 12;
+    }
+    if (std::memcmp(p + i + 4, "IEND", 4) == 0) break;
+    i += size_t(len) + 12;
+  }
+  if (copied == 0) return {};
+  out.insert(out.end(), p + copied, p + n);
+  return out;
+}
+
 }  // namespace
 
 Result<RawImage> decodeImage(const uint8_t* data, size_t size, const Limits& limits, uint64_t* decodedBytes) {
@@ -169,6 +192,11 @@ Result<RawImage> decodeImage(const uint8_t* data, size_t size, const Limits& lim
       return makeError(ErrorCode::LimitExceeded, "image data larger than 2 GiB");
     data = padded.data();
     size = padded.size();
+  }
+  std::vector<uint8_t> noEmptyIdat = dropEmptyIdat(data, size);
+  if (!noEmptyIdat.empty()) {
+    data = noEmptyIdat.data();
+    size = noEmptyIdat.size();
   }
   const int n2 = int(size);
   if (uint64_t(w) * uint64_t(h) * uint64_t(comp) > kMaxSamples)

@@ -452,7 +452,7 @@ inline State sdagStateAs(const uint8_t* data, const SdagDirectory& dir, uint32_t
 }
 // The walk from a map's root down to the record of height 2 that covers index bits [8, ...): returns that
 // record's byte offset in the data (>= kSdagDirectoryBytes), or the state (< 4) when a uniform child above it
-// ends the walk. Maps of level >= 6 only (root height >= 3, or a 4-way root above height >= 2... see below).
+// ends the walk. Maps of level >= 6 only (an even root of height >= 3, or a 4-way root above height >= 2).
 template <Format F, uint32_t H>
 inline uint32_t sdagDescend(const uint8_t* data, const SdagDirectory& dir, const uint8_t* p,
                             uint32_t index) noexcept {
@@ -495,7 +495,7 @@ inline uint32_t sdagDescendToHeight2(const uint8_t* data, const SdagDirectory& d
   }
 }
 
-// A per-thread memo of the last walks from a root to a record of height 2 (16 entries, direct mapped): rays
+// A per-thread memo of the last walks from a root to a record of height 2 (256 entries, direct mapped): rays
 // next to each other hit the same 256-micro-triangle blocks of the same maps, and a hit skips all the DAG levels
 // above the last two. An entry is keyed by the array's identity (EncodedArray::identity(), unique per content:
 // a new one for every build and parse, shared only by copies, which hold the same bytes), the root's offset, the

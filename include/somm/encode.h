@@ -361,7 +361,7 @@ inline State csmState(const uint8_t* data, uint32_t offset, uint32_t level, Form
 // height-1, base[12] = end of the regions), u8 width[12] (bits of a reference into region k), u8 tier[12] (0: every
 // reference into region k is width[k] bits; t > 0: each is short, t-1 bits, or long, width[k] bits) and 4 zero
 // bytes. A node of height h in region (f, h): u16 mask M (1 = child is a node), the states of the uniform children
-// (M bit 0) in slot order, b bits each, then the references of the node children in slot order — when region
+// (M bit 0) in slot order, 1 bit each (transparent / opaque; a uniformly unknown child is a node child), then the references of the node children in slot order — when region
 // (f, h-1) is tiered first one flag bit per node child (1 = short), then the references, short ones t-1 bits —: a
 // leaf number in region (f, 1) (leaves are 2b bytes) or a byte offset into region (f, h-1); byte-aligned records.
 // Records are sorted by use, so the most used ones have the small (short) references. The mask and the flags are
@@ -407,9 +407,9 @@ SOMM_ENCODE_INLINE State sdagNodeStep(const uint8_t* data, const SdagDirectory& 
   constexpr uint32_t b = F == Format::TwoState ? 1u : 2u, k = sdagRegion(F, H - 1);
   const uint32_t slot = (index >> (4u * (H - 1u))) & 15u, m = load16(p),
                  below = popcount16(m & ((1u << slot) - 1u));
-  if (!((m >> slot) & 1u)) return getValue(p, 16, F, slot - below);
+  if (!((m >> slot) & 1u)) return State(getBit(p, 16u + slot - below));
   const uint32_t n = popcount16(m);
-  const uint32_t ref = sdagRef(p, 16 + b * (16 - n), n, below, dir.width[k], dir.tier[k]);
+  const uint32_t ref = sdagRef(p, 32u - n, n, below, dir.width[k], dir.tier[k]);
   if constexpr (H == 2) {
     return getValue(data + dir.base[k] + ref * 2u * b, 0, F, index & 15u);
   } else {
@@ -441,12 +441,11 @@ inline State sdagStateAs(const uint8_t* data, const SdagDirectory& dir, uint32_t
   if (level <= 1) return getValue(p, 0, F, index);
   const uint32_t h = level >> 1;
   if (level & 1u) {  // 4-way root: M in bits 0..3, states from bit 4
-    constexpr uint32_t b = F == Format::TwoState ? 1u : 2u;
     const uint32_t slot = index >> (2 * level - 2), m = p[0] & 15u,
                    below = popcount16(m & ((1u << slot) - 1u));
-    if (!((m >> slot) & 1u)) return getValue(p, 4, F, slot - below);
+    if (!((m >> slot) & 1u)) return State(getBit(p, 4u + slot - below));
     const uint32_t k = sdagRegion(F, h), n = popcount16(m);
-    p = sdagChild(data, dir, F, h, sdagRef(p, 4 + b * (4 - n), n, below, dir.width[k], dir.tier[k]));
+    p = sdagChild(data, dir, F, h, sdagRef(p, 8u - n, n, below, dir.width[k], dir.tier[k]));
   }
   return sdagNodeWalk<F>(data, dir, p, h, index);
 }
@@ -456,12 +455,12 @@ inline State sdagStateAs(const uint8_t* data, const SdagDirectory& dir, uint32_t
 template <Format F, uint32_t H>
 inline uint32_t sdagDescend(const uint8_t* data, const SdagDirectory& dir, const uint8_t* p,
                             uint32_t index) noexcept {
-  constexpr uint32_t b = F == Format::TwoState ? 1u : 2u, k = sdagRegion(F, H - 1);
+  constexpr uint32_t k = sdagRegion(F, H - 1);
   const uint32_t slot = (index >> (4u * (H - 1u))) & 15u, m = load16(p),
                  below = popcount16(m & ((1u << slot) - 1u));
-  if (!((m >> slot) & 1u)) return uint32_t(getValue(p, 16, F, slot - below));
+  if (!((m >> slot) & 1u)) return getBit(p, 16u + slot - below);
   const uint32_t n = popcount16(m);
-  const uint32_t child = dir.base[k] + sdagRef(p, 16 + b * (16 - n), n, below, dir.width[k], dir.tier[k]);
+  const uint32_t child = dir.base[k] + sdagRef(p, 32u - n, n, below, dir.width[k], dir.tier[k]);
   if constexpr (H == 3) {
     return child;
   } else {
@@ -474,12 +473,11 @@ inline uint32_t sdagDescendToHeight2(const uint8_t* data, const SdagDirectory& d
   const uint8_t* p = data + offset;
   uint32_t h = level >> 1;
   if (level & 1u) {
-    constexpr uint32_t b = F == Format::TwoState ? 1u : 2u;
     const uint32_t slot = index >> (2 * level - 2), m = p[0] & 15u,
                    below = popcount16(m & ((1u << slot) - 1u));
-    if (!((m >> slot) & 1u)) return uint32_t(getValue(p, 4, F, slot - below));
+    if (!((m >> slot) & 1u)) return getBit(p, 4u + slot - below);
     const uint32_t k = sdagRegion(F, h), n = popcount16(m);
-    const uint32_t child = dir.base[k] + sdagRef(p, 4 + b * (4 - n), n, below, dir.width[k], dir.tier[k]);
+    const uint32_t child = dir.base[k] + sdagRef(p, 8u - n, n, below, dir.width[k], dir.tier[k]);
     if (h == 2) return child;
     p = data + child;
   }

@@ -465,6 +465,9 @@ struct DagTables {
   };
   std::array<Table, kSdagRegions> t;
   std::vector<std::pair<uint32_t, uint32_t>>* created = nullptr;  // (region, id) of every new record
+  // sdag: uniform children hold 1 bit (transparent / opaque), so a uniformly unknown subtree is a node child:
+  // the uniform record of its height (a leaf of 16 equal states, or a node of 16 references to the one below).
+  bool sdag = false;
 
   uint32_t intern(uint32_t region, const Key& k) {
     Table& tb = t[region];
@@ -483,9 +486,22 @@ using NodeVals = std::vector<std::vector<uint8_t>>;
 uint32_t internRecord(const NodeVals& vals, uint32_t level, Format f, uint32_t d, uint64_t i,
                       DagTables& tables);
 
+Key uniformKey(uint32_t h, uint32_t s);
+
+// The uniform record of height h and state s in region (f, h), for sdag's uniformly unknown children.
+uint32_t internUniform(Format f, uint32_t h, uint32_t s, DagTables& tables) {
+  Key k = uniformKey(h, s);
+  if (h > 1) k.fill(kNodeCode + internUniform(f, h - 1, s, tables));
+  return tables.intern(sdagRegion(f, h), k);
+}
+
 uint32_t internSubtree(const NodeVals& vals, uint32_t level, Format f, uint32_t d, uint64_t i,
                        DagTables& tables) {
-  if (vals[d][i] != kMixed) return vals[d][i];
+  if (vals[d][i] != kMixed) {
+    if (tables.sdag && vals[d][i] >= 2)
+      return kNodeCode + internUniform(f, (level - d) / 2, vals[d][i], tables);
+    return vals[d][i];
+  }
   return kNodeCode + internRecord(vals, level, f, d, i, tables);
 }
 
@@ -567,9 +583,9 @@ struct SdagLayout {
 };
 
 // Bytes of a record of `slots` children whose node children are in region `below`.
-uint64_t sdagNodeBytes(const Key& k, uint32_t slots, uint32_t b, const SdagLayout& l, uint32_t below) {
+uint64_t sdagNodeBytes(const Key& k, uint32_t slots, const SdagLayout& l, uint32_t below) {
   const uint32_t n = nodeChildren(k, slots);
-  uint64_t bits = slots + b * (slots - n) + (l.tier[below] != 0 ? n : 0);
+  uint64_t bits = slots + (slots - n) + (l.tier[below] != 0 ? n : 0);  // uniform states: 1 bit each
   for (uint32_t s = 0; s < slots; ++s)
     if (k[s] >= kNodeCode) bits += l.refBits(below, k[s] - kNodeCode);
   return (bits + 7) / 8;
@@ -624,7 +640,7 @@ SdagLayout sdagLayout(const DagTables& tables, const std::vector<DagRoot>& roots
       for (uint32_t i = 0; i < recs.size(); ++i) {
         const uint32_t id = order[i];
         l.ref[k][id] = h == 1 ? i : uint32_t(off);
-        off += h == 1 ? 2 * b : sdagNodeBytes(recs[id], 16, b, l, k - 1);
+        off += h == 1 ? 2 * b : sdagNodeBytes(recs[id], 16, l, k - 1);
       }
       l.bytes[k] = off;
       l.width[k] = uint8_t(recs.empty() ? 0 : bitsFor(uint64_t(l.ref[k][order.back()]) + 1));
@@ -638,14 +654,14 @@ uint64_t sdagRootBytes(const DagRoot& r, const SdagLayout& l) {
   if (r.level <= 1 || r.level % 2 == 0) return r.level <= 1 ? 1 : 0;  // even roots live in their region
   Key k{};
   for (uint32_t c = 0; c < 4; ++c) k[c] = r.children[c];
-  return sdagNodeBytes(k, 4, bitsPerState(r.format), l, sdagRegion(r.format, (r.level - 1) / 2));
+  return sdagNodeBytes(k, 4, l, sdagRegion(r.format, (r.level - 1) / 2));
 }
 
 uint64_t sdagRecordBytes(uint32_t region, uint32_t id, const DagTables& tables, const SdagLayout& l) {
   const uint32_t h = region % 6 + 1;
   const Format f = region < 6 ? Format::TwoState : Format::FourState;
   if (h == 1) return 2 * bitsPerState(f);
-  return sdagNodeBytes(tables.t[region].records[id], 16, bitsPerState(f), l, region - 1);
+  return sdagNodeBytes(tables.t[region].records[id], 16, l, region - 1);
 }
 
 void putLeaf(BitWriter& out, uint32_t packed, uint32_t b) {
@@ -653,14 +669,13 @@ void putLeaf(BitWriter& out, uint32_t packed, uint32_t b) {
 }
 
 // Mask, uniform states, the short flags (tiered region below), references, byte-padded.
-void putSdagNode(BitWriter& out, const Key& k, uint32_t slots, uint32_t b, const SdagLayout& l,
-                 uint32_t below) {
+void putSdagNode(BitWriter& out, const Key& k, uint32_t slots, const SdagLayout& l, uint32_t below) {
   uint32_t m = 0;
   for (uint32_t s = 0; s < slots; ++s)
     if (k[s] >= kNodeCode) m |= 1u << s;
   out.put(m, slots);
   for (uint32_t s = 0; s < slots; ++s)
-    if (k[s] < kNodeCode) out.put(k[s], b);
+    if (k[s] < kNodeCode) out.put(k[s], 1);
   if (l.tier[below] != 0)
     for (uint32_t s = 0; s < slots; ++s)
       if (k[s] >= kNodeCode) out.put(l.isShort(below, k[s] - kNodeCode) ? 1 : 0, 1);
@@ -702,7 +717,7 @@ std::vector<uint8_t> emitSdag(const DagTables& tables, const std::vector<DagRoot
         if (h == 1)
           putLeaf(out, r[0], b);
         else
-          putSdagNode(out, r, 16, b, l, k - 1);
+          putSdagNode(out, r, 16, l, k - 1);
       }
     }
   }
@@ -725,7 +740,7 @@ std::vector<uint8_t> emitSdag(const DagTables& tables, const std::vector<DagRoot
       offsets[m] = uint32_t(out.bits() / 8);
       Key k{};
       for (uint32_t c = 0; c < 4; ++c) k[c] = r.children[c];
-      putSdagNode(out, k, 4, b, l, sdagRegion(r.format, (r.level - 1) / 2));
+      putSdagNode(out, k, 4, l, sdagRegion(r.format, (r.level - 1) / 2));
     }
   }
   return out.bytes();
@@ -803,7 +818,6 @@ std::vector<uint8_t> emitCsm(DagTables& tables, const std::vector<DagRoot>& root
 
 void sdagFill(const uint8_t* data, const SdagDirectory& dir, const uint8_t* p, Format f, uint32_t h,
               uint32_t slots, uint64_t start, Micromap& out) {
-  const uint32_t b = bitsPerState(f);
   if (h == 0) {  // a leaf's states (slots = 16) or a level-0/1 root byte
     for (uint32_t s = 0; s < slots; ++s) out.set(uint32_t(start + s), getValue(p, 0, f, s));
     return;
@@ -814,14 +828,14 @@ void sdagFill(const uint8_t* data, const SdagDirectory& dir, const uint8_t* p, F
   uint32_t ui = 0, ni = 0;
   for (uint32_t s = 0; s < slots; ++s) {
     if ((m >> s) & 1u) {
-      const uint32_t ref = sdagRef(p, mbits + b * (slots - n), n, ni++, w, t);
+      const uint32_t ref = sdagRef(p, mbits + (slots - n), n, ni++, w, t);
       const uint8_t* c = sdagChild(data, dir, f, h, ref);
       if (h == 1)
         sdagFill(data, dir, c, f, 0, 16, start + s * span, out);
       else
         sdagFill(data, dir, c, f, h - 1, 16, start + s * span, out);
     } else {
-      fillRange(out, start + s * span, span, getValue(p, mbits, f, ui++));
+      fillRange(out, start + s * span, span, State(getBit(p, mbits + ui++)));
     }
   }
 }
@@ -860,12 +874,11 @@ struct SdagChecker {
   }
   // A record of `slots` children of height h at p with `avail` bytes.
   bool record(const uint8_t* p, uint64_t avail, Format f, uint32_t h, uint32_t slots) {
-    const uint32_t b = bitsPerState(f);
     if (avail < (slots == 16 ? 2u : 1u)) return false;
     const uint32_t m = slots == 16 ? load16(p) : p[0] & 15u, n = popcount64(m);
     if (h == 0 && m != 0) return false;
     const uint32_t w = h == 0 ? 0 : dir.width[sdagRegion(f, h)], t = h == 0 ? 0 : dir.tier[sdagRegion(f, h)];
-    const uint32_t pos = slots + b * (slots - n);
+    const uint32_t pos = slots + (slots - n);
     if ((pos + (t != 0 ? n : 0) + 7) / 8 > avail) return false;  // the flags
     if ((pos + uint64_t(sdagRefBits(p, pos, n, w, t)) + 7) / 8 > avail) return false;
     for (uint32_t i = 0; i < n; ++i)
@@ -985,7 +998,8 @@ uint64_t newIdentity() {
 constexpr uint32_t kMagic = 0x434e4553;   // "SENC"
 constexpr uint8_t kVersion = 1;           // arrays without the sdag directory
 constexpr uint8_t kVersionTiers = 2;      // the old sdag layout: directory with tiers, 16/32-bit index buffer
-constexpr uint8_t kVersionDirectory = 3;  // arrays with it (directory with tiers + the packed index buffer)
+constexpr uint8_t kVersionTwoBitUniform = 3;  // the old sdag layout: 2-bit uniform states (4-state)
+constexpr uint8_t kVersionDirectory = 4;  // arrays with it (directory with tiers + the packed index buffer)
 
 }  // namespace
 
@@ -1040,6 +1054,7 @@ struct SdagBuild {
 SdagBuild buildSdag(const std::vector<Micromap>& maps, std::vector<encode::DagMapOut> choice) {
   {
     encode::DagTables tables;
+    tables.sdag = true;
     std::vector<std::vector<std::pair<uint32_t, uint32_t>>> created(maps.size());
     std::vector<encode::DagRoot> roots;
     for (size_t i = 0; i < maps.size(); ++i) {
@@ -1057,6 +1072,7 @@ SdagBuild buildSdag(const std::vector<Micromap>& maps, std::vector<encode::DagMa
     }
   }
   encode::DagTables tables;
+  tables.sdag = true;
   std::vector<encode::DagRoot> roots;
   for (size_t i = 0; i < maps.size(); ++i)
     roots.push_back(choice[i].kind == MapKind::Sdag ? encode::internMap(maps[i], tables)
@@ -1250,6 +1266,11 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
         prefix +
             "encoded array version 2 (the sdag layout with a 16/32-bit index buffer) is no longer "
             "supported (encode the micromaps again)");
+  if (p[4] == kVersionTwoBitUniform)
+    return makeError(ErrorCode::UnsupportedFormat,
+                     prefix +
+                         "encoded array version 3 (the sdag layout with 2-bit uniform states) is no longer "
+                         "supported (encode the micromaps again)");
   if (p[4] != kVersion && p[4] != kVersionDirectory)
     return makeError(ErrorCode::UnsupportedFormat,
                      prefix + "encoded array version " + std::to_string(p[4]) + " is not supported");
@@ -1259,7 +1280,7 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
                          "encoded array version 1 with the old sdag layout is no longer supported "
                          "(encode the micromaps again)");
   if (p[4] == kVersionDirectory && p[7] != 1)
-    return bad("encoded array version 3 without the sdag directory");
+    return bad("encoded array version 4 without the sdag directory");
   if (p[5] >= kEncodingCount) return bad("unknown encoding id " + std::to_string(p[5]));
   const bool packed = p[4] == kVersionDirectory;
   if (!packed && p[6] != 2 && p[6] != 4) return bad("index size must be 2 or 4 bytes");

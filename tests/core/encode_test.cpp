@@ -538,7 +538,7 @@ TEST(EncodeDag, WorkedExampleLayouts) {
   EXPECT_EQ(sdag.data()[81], 0x00);
   EXPECT_EQ(sdag.data()[82], 0x2c);
   EXPECT_EQ(sdag.serialize()[4],
-            3u);  // arrays with the directory (and the packed index buffer) are version 3
+            4u);  // arrays with the directory (and the packed index buffer) are version 4
   EXPECT_EQ(sdag.serialize()[6], 3u);  // one map: k = bits for 0 .. 1 + 3
   // triangles 0..4 → map 0, then -1..-4 as 7, 6, 5, 4 (3 bits each): 0x4bb8
   EXPECT_EQ(sdag.serialize()[20], 0xb8);
@@ -589,6 +589,37 @@ TEST(EncodeDag, WorkedExampleTieredReferences) {
   ASSERT_FALSE(v2);
   EXPECT_EQ(v2.error().code, ErrorCode::UnsupportedFormat);
   EXPECT_NE(v2.error().message.find("version 2"), std::string::npos) << v2.error().message;
+  // Version 3 (2-bit uniform states in 4-state records) is refused clearly too.
+  bytes[4] = 3;
+  const auto v3 = EncodedArray::parse(bytes, "v3.somm");
+  ASSERT_FALSE(v3);
+  EXPECT_EQ(v3.error().code, ErrorCode::UnsupportedFormat);
+  EXPECT_NE(v3.error().message.find("version 3"), std::string::npos) << v3.error().message;
+}
+
+// docs/encodings.md's third worked example: 4-state uniform children take 1 bit; a uniformly unknown child is a
+// node child referring to the uniform leaf.
+TEST(EncodeDag, WorkedExampleUnknownUniformChild) {
+  Micromap m(4, Format::FourState);
+  for (uint32_t i = 0; i < 16; ++i) m.set(i, State::UnknownOpaque);
+  for (uint32_t i = 16; i < 32; ++i) m.set(i, State::Opaque);
+  for (uint32_t i = 32; i < 48; ++i) m.set(i, State(i % 4));
+  const EncodedArray sdag = EncodedArray::build(arrayOf({m}), Encoding::Sdag).value();
+  const std::vector<uint8_t> regions{0xff, 0xff, 0xff, 0xff, 0xe4, 0xe4, 0xe4, 0xe4, 0x05, 0x00, 0x01, 0x80};
+  ASSERT_EQ(sdag.dataBytes(), 92u);
+  EXPECT_EQ(std::vector<uint8_t>(sdag.data().begin() + 80, sdag.data().begin() + 92), regions);
+  const encode::SdagDirectory& dir = sdag.directory();
+  for (uint32_t k = 0; k <= 6; ++k) EXPECT_EQ(dir.base[k], 80u);
+  EXPECT_EQ(dir.base[7], 88u);
+  for (uint32_t k = 8; k <= encode::kSdagRegions; ++k) EXPECT_EQ(dir.base[k], 92u);
+  EXPECT_EQ(dir.width[6], 1u);
+  EXPECT_EQ(dir.tier[6], 0u);
+  EXPECT_EQ(sdag.maps()[0].offset, 88u);
+  EXPECT_EQ(sdag.state(0, 5), State::UnknownOpaque);
+  EXPECT_EQ(sdag.state(0, 20), State::Opaque);
+  EXPECT_EQ(sdag.state(0, 39), State::UnknownOpaque);
+  EXPECT_EQ(sdag.state(0, 200), State::Transparent);
+  for (uint32_t i = 0; i < 256; ++i) EXPECT_EQ(sdag.state(0, i), m.get(i)) << i;
 }
 
 // The packed index buffer of sdag arrays: k = sdagIndexBits(M) bits per triangle, specials as the k-bit two's

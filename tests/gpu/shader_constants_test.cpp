@@ -127,7 +127,7 @@ TEST(ShaderConstants, ArrayHeaderFieldsWhereTheShaderReadsThem) {
       // Byte 7 bit 0 (the sdag directory): byte 6 is the packed index width k, the buffer ceil(T·k / 8) bytes.
       const bool packed = (b[7] & 1u) != 0;
       EXPECT_EQ(packed, a->hasDirectory());
-      EXPECT_EQ(b[4], packed ? 3u : 1u);
+      EXPECT_EQ(b[4], packed ? 4u : 1u);
       EXPECT_EQ(b[6], packed ? uint8_t(a->indexBits()) : uint8_t(a->indexType()));
       if (packed) {
         EXPECT_EQ(a->indexBits(), somm::encode::sdagIndexBits(a->mapCount()));

@@ -9,6 +9,8 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -26,6 +28,132 @@
 namespace {
 
 using somm::Encoding;
+
+// Statistics that bound the sdag size ideas (4-state regions): printed with --sdag-stats.
+void printSdagAnalysis(const somm::EncodedArray& a) {
+  using namespace somm::encode;
+  const auto& dir = a.directory();
+  const uint8_t* data = a.data().data();
+  auto entropyBits = [](const std::vector<uint64_t>& c) {
+    double tot = 0, e = 0;
+    for (uint64_t v : c) tot += double(v);
+    for (uint64_t v : c)
+      if (v) e -= double(v) * std::log2(double(v) / tot);
+    return e;
+  };
+  const uint32_t k1 = sdagRegion(somm::Format::FourState, 1), k2 = k1 + 1, k3 = k1 + 2;
+  const uint32_t nLeaves = (dir.base[k1 + 1] - dir.base[k1]) / 4;
+  std::vector<uint64_t> leafUse(nLeaves, 0);
+  std::vector<std::vector<uint64_t>> leafUseSlot(16, std::vector<uint64_t>(nLeaves, 0));
+  uint64_t recs = 0, maskBits = 0, stateBits = 0, flagBits = 0, refBits = 0, padBits = 0, stHist[4] = {},
+           only01 = 0, save01 = 0;
+  std::map<std::pair<uint32_t, uint64_t>, uint32_t> shapes;
+  std::vector<uint32_t> h2off;
+  for (uint64_t off = dir.base[k2]; off < dir.base[k2 + 1];) {
+    const uint8_t* p = data + off;
+    const uint32_t m = load16(p), n = popcount64(m);
+    const uint32_t pos = 32 - n, w = dir.width[k1], t = dir.tier[k1];
+    uint64_t st = 0;
+    bool o01 = true;
+    for (uint32_t i = 0; i < 16 - n; ++i) {
+      const uint32_t s = getBit(p, 16 + i);
+      ++stHist[s];
+      o01 = o01 && s < 2;
+      st |= uint64_t(s) << (2 * i);
+    }
+    if (o01) {
+      ++only01;
+      save01 += 16 - n;
+    }
+    ++shapes[{m, st}];
+    uint32_t slot = 0, j = 0;
+    for (uint32_t s = 0; s < 16; ++s)
+      if (m >> s & 1u) {
+        const uint32_t r = sdagRef(p, pos, n, j++, w, t);
+        ++leafUse[r];
+        ++leafUseSlot[s][r];
+      }
+    (void)slot;
+    const uint32_t rb = sdagRefBits(p, pos, n, w, t);
+    const uint32_t bytes = (pos + rb + 7) / 8;
+    maskBits += 16;
+    stateBits += 16 - n;
+    flagBits += t ? n : 0;
+    refBits += rb - (t ? n : 0);
+    padBits += bytes * 8 - pos - rb;
+    h2off.push_back(uint32_t(off - dir.base[k2]));
+    off += bytes;
+    ++recs;
+  }
+  double hs = 0;
+  for (auto& v : leafUseSlot) hs += entropyBits(v);
+  uint64_t leafOnce = 0;
+  for (uint64_t u : leafUse) leafOnce += u == 1;
+  // leaves equal to another's complement (state ^ 1)
+  std::set<uint32_t> leafSet;
+  for (uint32_t i = 0; i < nLeaves; ++i) leafSet.insert(load32(data + dir.base[k1] + 4 * i));
+  uint64_t compl1 = 0;
+  for (uint32_t v : leafSet)
+    if (v != (v ^ 0x55555555u) && leafSet.count(v ^ 0x55555555u)) ++compl1;
+  std::fprintf(
+      stderr,
+      "h2 analysis: %llu records, bits: mask %llu B, uniform states %llu B (hist %llu/%llu/%llu/%llu; "
+      "%llu records with only 0/1 uniform children, 1 bit each would save %llu B), flags %llu B, refs "
+      "%llu B, pad %llu B; distinct (mask, states) shapes %zu\n",
+      (unsigned long long)recs, (unsigned long long)maskBits / 8, (unsigned long long)stateBits / 8,
+      (unsigned long long)stHist[0], (unsigned long long)stHist[1], (unsigned long long)stHist[2],
+      (unsigned long long)stHist[3], (unsigned long long)only01, (unsigned long long)save01 / 8,
+      (unsigned long long)flagBits / 8, (unsigned long long)refBits / 8, (unsigned long long)padBits / 8,
+      shapes.size());
+  std::fprintf(stderr,
+               "leaf refs: H(leaf) %.0f B, H(leaf | slot) %.0f B, leaves referenced once %llu, leaves whose "
+               "complement is a leaf %llu of %u\n",
+               entropyBits(leafUse) / 8, hs / 8, (unsigned long long)leafOnce, (unsigned long long)compl1,
+               nLeaves);
+  // h3: references into h2, how many h2 records referenced once
+  std::map<uint32_t, uint32_t> h2use;
+  uint64_t h3recs = 0, h3refBits = 0, h3refs = 0;
+  for (uint64_t off = dir.base[k3]; off < dir.base[k3 + 1];) {
+    const uint8_t* p = data + off;
+    const uint32_t m = load16(p), n = popcount64(m);
+    const uint32_t pos = 32 - n, w = dir.width[k2], t = dir.tier[k2];
+    for (uint32_t j = 0; j < n; ++j) ++h2use[sdagRef(p, pos, n, j, w, t)];
+    const uint32_t rb = sdagRefBits(p, pos, n, w, t);
+    h3refBits += rb;
+    h3refs += n;
+    off += (pos + rb + 7) / 8;
+    ++h3recs;
+  }
+  uint64_t once = 0;
+  for (auto& [o, u] : h2use) once += u == 1;
+  std::vector<uint64_t> h2u;
+  for (auto& [o, u] : h2use) h2u.push_back(u);
+  std::fprintf(
+      stderr,
+      "h3: %llu records, %llu refs into h2 (%llu B of refs+flags, H %.0f B), h2 records referenced once "
+      "from h3: %llu of %zu referenced\n",
+      (unsigned long long)h3recs, (unsigned long long)h3refs, (unsigned long long)h3refBits / 8,
+      entropyBits(h2u) / 8, (unsigned long long)once, h2use.size());
+  {
+    std::map<int32_t, uint64_t> hist;
+    uint64_t runs = 0;
+    int32_t prev = 1 << 30;
+    for (int32_t v : a.indices()) {
+      ++hist[v < 0 ? v : 0];
+      runs += v != prev;
+      prev = v;
+    }
+    std::vector<uint64_t> hv;
+    std::map<int32_t, uint64_t> full;
+    for (int32_t v : a.indices()) ++full[v];
+    for (auto& [v, c] : full) hv.push_back(c);
+    std::fprintf(stderr,
+                 "index: %zu triangles, maps %llu, -1 %llu, -2 %llu, -3 %llu, -4 %llu, runs %llu, H %.0f B\n",
+                 a.indices().size(), (unsigned long long)hist[0], (unsigned long long)hist[-1],
+                 (unsigned long long)hist[-2], (unsigned long long)hist[-3], (unsigned long long)hist[-4],
+                 (unsigned long long)runs, entropyBits(hv) / 8);
+  }
+}
 
 struct Options {
   std::vector<std::string> scenes;
@@ -422,7 +550,7 @@ int run(const Options& o) {
               for (uint64_t off = dir.base[k]; off < dir.base[k + 1];) {
                 const uint8_t* p = data + off;
                 const uint32_t m = somm::encode::load16(p), n = somm::encode::popcount64(m);
-                const uint32_t pos = 16 + 2 * (16 - n);
+                const uint32_t pos = 32 - n;
                 if (h == 2)
                   for (uint32_t i = 0; i < n; ++i) {
                     const uint32_t r = somm::encode::sdagRef(p, pos, n, i, w, t);
@@ -453,6 +581,7 @@ int run(const Options& o) {
                   " B, " + std::to_string(flatMaps) + " maps flat, indices+descriptors " +
                   std::to_string(a->byteSize() - a->dataBytes() - a->paddingBytes()) + " B\n";
           std::fputs(line.c_str(), stderr);
+          printSdagAnalysis(*a);
         }
         if (e == Encoding::Flat) row.xz = xzBytes(a->serialize());
         row.ns[size_t(e)] = lookupNsAny(*a, flat, q);

@@ -33,10 +33,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   for (detail::AlphaChannel c : {detail::AlphaChannel::AlphaOrOne, detail::AlphaChannel::AlphaOrLuminance,
                                  detail::AlphaChannel::Red, detail::AlphaChannel::Luminance}) {
     const AlphaTexture t = detail::toAlphaTexture(img, c, 0.75f, c == detail::AlphaChannel::Red);
-    if (t.width != img.width || t.height != img.height || t.alpha.size() != img.px.size() / img.channels)
+    if (t.width != img.width || t.height != img.height || !t.consistent() ||
+        t.texelCount() != img.px.size() / img.channels)
       fuzz::fail("fuzz_image", "alpha texture size");
-    for (float a : t.alpha)
-      if (!(a >= 0.0f && a <= 1.0f)) fuzz::fail("fuzz_image", "alpha outside [0, 1]");
+    for (size_t i = 0; i < t.texelCount(); ++i)
+      if (!(t.texel(i) >= 0.0f && t.texel(i) <= 1.0f)) fuzz::fail("fuzz_image", "alpha outside [0, 1]");
   }
   const ColorImage c = detail::toColorImage(img, true);
   if (c.rgba.size() != size_t(img.width) * img.height * 4) fuzz::fail("fuzz_image", "colour image size");

@@ -95,6 +95,9 @@ struct Scene {
 
 struct LoadOptions {
   bool blendAsMask = false;  // treat glTF BLEND materials as MASK with their cutoff
+  // Keep the base colour images (Material::baseColor) for shading. False: baseColor stays null and only what the
+  // alpha test needs is kept (`somm bake`: the images are still decoded, for their alpha, then dropped).
+  bool loadColor = true;
   Limits limits;             // file sizes, image pixels, nodes, instances (docs/hardening.md)
 };
 

@@ -1088,10 +1088,17 @@ Status validateAlphaTexture(const Material& m) {
   if (t.width == 0 || t.height == 0) return makeError(ErrorCode::InvalidArgument, name + ": empty texture");
   if (uint64_t(t.width) * t.height >= (uint64_t(1) << 32))
     return makeError(ErrorCode::LimitExceeded, name + ": texture too large");
-  if (t.alpha.size() != size_t(t.width) * t.height)
-    return makeError(ErrorCode::InvalidArgument, name + ": alpha has " + std::to_string(t.alpha.size()) +
-                                                     " values for " + std::to_string(t.width) + "x" +
+  if (!t.consistent()) {
+    const size_t n = t.storage == AlphaStorage::UInt8    ? t.alpha8.size()
+                     : t.storage == AlphaStorage::UInt16 ? t.alpha16.size()
+                                                         : t.alpha.size();
+    if (n == t.texelCount())
+      return makeError(ErrorCode::InvalidArgument,
+                       name + ": integer alpha without a value table of its size");
+    return makeError(ErrorCode::InvalidArgument, name + ": alpha has " + std::to_string(n) + " values for " +
+                                                     std::to_string(t.width) + "x" +
                                                      std::to_string(t.height));
+  }
   return Ok{};
 }
 
@@ -1189,15 +1196,29 @@ void AlphaMask::build() {
 }
 
 AlphaMask::AlphaMask(const AlphaTexture& texture, const Sampler& sampler, float cutoff)
-    : base_(reinterpret_cast<const uint8_t*>(texture.alpha.data())),
-      pitch_(size_t(texture.width) * sizeof(float)),
-      bpp_(sizeof(float)),
-      kind_(Kind::F32),
-      w_(texture.width),
-      h_(texture.height),
-      sampler_(sampler),
-      cutoff_(cutoff) {
-  assert(w_ > 0 && h_ > 0 && texture.alpha.size() == size_t(w_) * h_);
+    : w_(texture.width), h_(texture.height), sampler_(sampler), cutoff_(cutoff) {
+  assert(w_ > 0 && h_ > 0 && texture.consistent());
+  // Viewed at its own precision, no copy: integer texels through the texture's table (the same floats as at()).
+  switch (texture.storage) {
+    case AlphaStorage::UInt8:
+      base_ = texture.alpha8.data();
+      bpp_ = 1;
+      kind_ = Kind::U8;
+      lut_ = *texture.lut;
+      break;
+    case AlphaStorage::UInt16:
+      base_ = reinterpret_cast<const uint8_t*>(texture.alpha16.data());
+      bpp_ = 2;
+      kind_ = Kind::U16;
+      lut_ = *texture.lut;
+      break;
+    case AlphaStorage::Float32:
+      base_ = reinterpret_cast<const uint8_t*>(texture.alpha.data());
+      bpp_ = sizeof(float);
+      kind_ = Kind::F32;
+      break;
+  }
+  pitch_ = size_t(w_) * bpp_;
   build();
 }
 
@@ -1455,6 +1476,7 @@ Result<SceneBake> bakeScene(const BakeInputs& in, const BakeOptions& o) {
 Result<SceneBake> bakeScene(const Scene& scene, const BakeOptions& o) {
   std::vector<TextureView> textures;
   std::vector<const AlphaTexture*> seen;
+  std::vector<float> scales;  // by texture: the factor an integer texture's table includes
   std::vector<MaterialInput> materials(scene.materials.size());
   for (size_t m = 0; m < scene.materials.size(); ++m) {
     const Material& sm = scene.materials[m];
@@ -1474,14 +1496,22 @@ Result<SceneBake> bakeScene(const Scene& scene, const BakeOptions& o) {
       } else {
         mi.texture = int32_t(seen.size());
         seen.push_back(sm.alpha.get());
+        // At the texture's own precision (the mask reads 8/16-bit texels through a table: no float copy).
+        const AlphaTexture& a = *sm.alpha;
         TextureView v;
-        v.data = sm.alpha->alpha.data();
-        v.width = sm.alpha->width;
-        v.height = sm.alpha->height;
-        v.format = TexelFormat::R32F;
+        v.data = a.storage == AlphaStorage::UInt8    ? static_cast<const void*>(a.alpha8.data())
+                 : a.storage == AlphaStorage::UInt16 ? static_cast<const void*>(a.alpha16.data())
+                                                     : static_cast<const void*>(a.alpha.data());
+        v.width = a.width;
+        v.height = a.height;
+        v.format = a.storage == AlphaStorage::UInt8    ? TexelFormat::R8
+                   : a.storage == AlphaStorage::UInt16 ? TexelFormat::R16
+                                                       : TexelFormat::R32F;
         v.name = sm.alphaSource.c_str();
         textures.push_back(v);
+        scales.push_back(a.storage == AlphaStorage::Float32 ? 1.0f : a.scale);
       }
+      mi.alphaScale = scales[size_t(mi.texture)];
     }
   }
   std::vector<GeometryInput> geometries;

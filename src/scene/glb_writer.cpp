@@ -108,7 +108,7 @@ Result<std::vector<uint8_t>> encodeGlb(const Scene& scene, const std::string& pa
     std::array<float, 4> factor = m.baseColorFactor;
     const AlphaTexture* a = m.alpha.get();
     const ColorImage* c = m.baseColor.get();
-    if (a && (a->width == 0 || a->height == 0 || a->alpha.size() != size_t(a->width) * a->height))
+    if (a && (a->width == 0 || a->height == 0 || !a->consistent()))
       return fail(ErrorCode::InvalidArgument, "material '" + m.name + "' has an inconsistent alpha texture");
     if (c && c->rgba.size() != size_t(c->width) * c->height * 4) c = nullptr;
     if (a || c) {
@@ -119,7 +119,7 @@ Result<std::vector<uint8_t>> encodeGlb(const Scene& scene, const std::string& pa
         for (int k = 0; k < 3; ++k)
           px[i * 4 + size_t(k)] = useColor ? uint16_t(c->rgba[i * 4 + size_t(k)] * 257) : 65535;
         if (a) {
-          const float v = a->alpha[i];
+          const float v = a->texel(i);
           px[i * 4 + 3] =
               std::isfinite(v) ? uint16_t(std::lround(std::clamp(double(v), 0.0, 1.0) * 65535.0)) : 0;
         } else {

@@ -491,9 +491,11 @@ Status GltfLoader::loadMaterials() {
       m.alphaSource = gi.uri.empty() || tinygltf::IsDataURI(gi.uri)
                           ? "image " + std::to_string(tex.source)
                           : (std::filesystem::path(path_).parent_path() / gi.uri).string();
-      auto& col = colorCache[tex.source];
-      if (!col) col = std::make_shared<const ColorImage>(toColorImage(img, false));
-      m.baseColor = col;
+      if (opts_.loadColor) {
+        auto& col = colorCache[tex.source];
+        if (!col) col = std::make_shared<const ColorImage>(toColorImage(img, false));
+        m.baseColor = col;
+      }
       if (m.alphaTested()) {
         auto& a = alphaCache[{tex.source, m.baseColorFactor[3]}];
         if (!a)

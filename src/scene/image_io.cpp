@@ -249,13 +249,59 @@ Result<RawImage> readImageFile(const std::string& path, const Limits& limits, ui
 }
 
 AlphaTexture toAlphaTexture(const RawImage& img, AlphaChannel channel, float factor, bool flipRows) {
+  const uint32_t nc = img.channels;
+  const bool hasAlpha = img.hasAlpha();
+  const bool colour = nc >= 3;
+  // The channel the alpha is, when it is one stored value (not a luminance mix): -1 none, nc: the constant 1.
+  int source = -1;
+  switch (channel) {
+    case AlphaChannel::AlphaOrOne:
+      source = hasAlpha ? int(nc) - 1 : int(nc);
+      break;
+    case AlphaChannel::AlphaOrLuminance:
+      source = hasAlpha ? int(nc) - 1 : (colour ? -1 : 0);
+      break;
+    case AlphaChannel::Red:
+      source = 0;
+      break;
+    case AlphaChannel::Green:
+      source = colour ? 1 : 0;
+      break;
+    case AlphaChannel::Blue:
+      source = colour ? 2 : 0;
+      break;
+    case AlphaChannel::Luminance:
+      source = colour ? -1 : 0;
+      break;
+  }
+  if (source >= 0) {
+    // At the image's precision: the table gives exactly the float the conversion below would. 8-bit images were
+    // widened as v · 257; a value that is not such a multiple (a hand-made RawImage) keeps the 16 bits.
+    auto value = [&](uint32_t x, uint32_t y) -> uint16_t {
+      const uint32_t sy = flipRows ? img.height - 1 - y : y;
+      return source == int(nc) ? uint16_t(65535) : img.px[(size_t(sy) * img.width + x) * nc + size_t(source)];
+    };
+    const size_t n = size_t(img.width) * img.height;
+    bool eight = !img.sixteenBit;
+    if (eight) {
+      std::vector<uint8_t> v8(n);
+      for (uint32_t y = 0; y < img.height && eight; ++y)
+        for (uint32_t x = 0; x < img.width; ++x) {
+          const uint16_t v = value(x, y);
+          eight &= v % 257u == 0;
+          v8[size_t(y) * img.width + x] = uint8_t(v / 257u);
+        }
+      if (eight) return AlphaTexture::fromUInt8(img.width, img.height, std::move(v8), factor);
+    }
+    std::vector<uint16_t> v16(n);
+    for (uint32_t y = 0; y < img.height; ++y)
+      for (uint32_t x = 0; x < img.width; ++x) v16[size_t(y) * img.width + x] = value(x, y);
+    return AlphaTexture::fromUInt16(img.width, img.height, std::move(v16), factor);
+  }
   AlphaTexture t;
   t.width = img.width;
   t.height = img.height;
   t.alpha.resize(size_t(img.width) * img.height);
-  const uint32_t nc = img.channels;
-  const bool hasAlpha = img.hasAlpha();
-  const bool colour = nc >= 3;
   for (uint32_t y = 0; y < img.height; ++y) {
     const uint32_t sy = flipRows ? img.height - 1 - y : y;
     for (uint32_t x = 0; x < img.width; ++x) {

@@ -214,9 +214,11 @@ Status ObjLoader::material(const tinyobj::material_t& tm, Material& m) {
     auto r = image(tm.diffuse_texname, m.name, kdPath);
     if (r.ok()) {
       kd = r.value();
-      auto& c = colors_[kdPath];
-      if (!c) c = std::make_shared<const ColorImage>(toColorImage(*kd, true));
-      m.baseColor = c;
+      if (opts_.loadColor) {
+        auto& c = colors_[kdPath];
+        if (!c) c = std::make_shared<const ColorImage>(toColorImage(*kd, true));
+        m.baseColor = c;
+      }
     } else if (!cannotCarryAlpha(kdPath) || std::filesystem::exists(kdPath)) {
       return r.error();
     } else {

@@ -202,7 +202,7 @@ Result<std::shared_ptr<const TraceWorld>> TraceWorld::create(const std::shared_p
           d.triUVs[6 * t + 2 * k + 1] = geo.uvs[2 * size_t(geo.indices[3 * t + k]) + 1];
         }
     d.alpha = mat.alpha && mat.alpha->width > 0 && mat.alpha->height > 0 ? mat.alpha.get() : nullptr;
-    if (d.alpha && d.alpha->alpha.size() != size_t(d.alpha->width) * d.alpha->height)
+    if (d.alpha && !d.alpha->consistent())
       return makeError(ErrorCode::CorruptFile,
                        where + ": material '" + mat.name + "' has a malformed alpha texture");
     d.sampler = mat.sampler;

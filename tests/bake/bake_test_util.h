@@ -40,7 +40,7 @@ inline float refAlpha(const AlphaTexture& tex, const Sampler& smp, float s, floa
   const double x = double(s) * tex.width, y = double(t) * tex.height;
   const int64_t W = tex.width, H = tex.height;
   auto texel = [&](int64_t i, int64_t j) {
-    return double(tex.alpha[size_t(refWrap(j, H, smp.wrapT) * W + refWrap(i, W, smp.wrapS))]);
+    return double(tex.texel(size_t(refWrap(j, H, smp.wrapT) * W + refWrap(i, W, smp.wrapS))));
   };
   if (smp.filter == Filter::Nearest) return float(texel(int64_t(std::floor(x)), int64_t(std::floor(y))));
   const double gx = std::floor(x - 0.5), gy = std::floor(y - 0.5);

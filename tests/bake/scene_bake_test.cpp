@@ -4,11 +4,13 @@
 // per-geometry bake of the same data.
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <random>
 #include <thread>
 
 #include "bake/bake_test_util.h"
 #include "somm/bake.h"
+#include "somm/scene.h"
 
 namespace somm {
 namespace {
@@ -361,6 +363,101 @@ TEST(ClassifyRegion, AgreesWithTheBakedMicroTriangles) {
       EXPECT_EQ(classifyRegion(mask, a, b, c, whole), isKnown(u) ? u : State::UnknownOpaque);
     }
     EXPECT_GT(known, 100u);
+  }
+}
+
+// AlphaTexture at source precision: at() gives the loaders' float conversion (v / 65535 in double, 8-bit values
+// widened as v · 257, then × factor in float and clamped) for every 8-bit value and sampled 16-bit values, with
+// and without a factor; the float storage of the same alphas is the same.
+TEST(AlphaTextureStorage, IntegerTexelsGiveTheLoaderFloats) {
+  auto loader = [](uint32_t v16, float factor) {
+    float a = float(v16 / 65535.0);
+    if (factor != 1.0f) a *= factor;
+    return std::clamp(a, 0.0f, 1.0f);
+  };
+  for (float factor : {1.0f, 0.7f, 1.9f}) {
+    std::vector<uint8_t> v8(256);
+    for (uint32_t v = 0; v < 256; ++v) v8[v] = uint8_t(v);
+    const AlphaTexture t8 = AlphaTexture::fromUInt8(16, 16, v8, factor);
+    ASSERT_TRUE(t8.consistent());
+    for (uint32_t v = 0; v < 256; ++v) EXPECT_EQ(t8.at(v % 16, v / 16), loader(v * 257, factor)) << v;
+    std::vector<uint16_t> v16;
+    for (uint32_t v = 0; v < 65536; v += 97) v16.push_back(uint16_t(v));
+    v16.push_back(65535);
+    const AlphaTexture t16 = AlphaTexture::fromUInt16(uint32_t(v16.size()), 1, v16, factor);
+    ASSERT_TRUE(t16.consistent());
+    for (size_t i = 0; i < v16.size(); ++i) EXPECT_EQ(t16.texel(i), loader(v16[i], factor)) << v16[i];
+  }
+  AlphaTexture f;
+  f.width = 2;
+  f.height = 1;
+  f.alpha = {0.25f, 1.0f};
+  EXPECT_TRUE(f.consistent());
+  EXPECT_EQ(f.at(0, 0), 0.25f);
+  AlphaTexture bad = AlphaTexture::fromUInt8(2, 2, {1, 2, 3});
+  EXPECT_FALSE(bad.consistent());
+}
+
+// The same alphas as 8 bits, 16 bits (v · 257) and floats, with a factor, bake to the same bytes through
+// bakeScene(Scene) (masks over the 8/16-bit texels, no float copy) and through the AlphaMask of the texture.
+TEST(AlphaTextureStorage, EveryStorageBakesTheSame) {
+  const uint32_t w = 61, h = 47;
+  const std::vector<uint8_t> a = alpha8(w, h);
+  std::vector<uint16_t> a16(a.size());
+  for (size_t i = 0; i < a.size(); ++i) a16[i] = uint16_t(a[i] * 257);
+  const float factor = 0.9f;
+  AlphaTexture flt = floatTexture(a, w, h);
+  for (float& v : flt.alpha) v = std::clamp(v * factor, 0.0f, 1.0f);
+  const std::vector<float> uv = randomUvs(300, 5);
+  std::vector<std::vector<uint8_t>> outs;
+  for (const AlphaTexture& t :
+       {AlphaTexture::fromUInt8(w, h, a, factor), AlphaTexture::fromUInt16(w, h, a16, factor), flt}) {
+    EXPECT_EQ(t.values(), flt.values());
+    Scene s;
+    Material m;
+    m.alphaMode = AlphaMode::Mask;
+    m.alphaCutoff = 0.4f;
+    m.sampler = kSampler;
+    m.alpha = std::make_shared<const AlphaTexture>(t);
+    s.materials.push_back(m);
+    s.geometries.push_back(geometryOf(uv, "g"));
+    BakeOptions o;
+    o.level = 5;
+    auto r = bakeScene(s, o);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    outs.push_back(r->micromaps.arrays[0].data);
+    const AlphaMask mask(t, kSampler, 0.4f);
+    for (uint32_t y = 0; y < h; ++y)
+      for (uint32_t x = 0; x < w; ++x) ASSERT_EQ(mask.texel(x, y), flt.at(x, y));
+  }
+  EXPECT_EQ(outs[0], outs[2]);
+  EXPECT_EQ(outs[1], outs[2]);
+}
+
+// A scene loaded without its colour images (LoadOptions::loadColor = false, as `somm bake` loads) has no baseColor
+// and bakes to the same bytes as the full load.
+TEST(AlphaTextureStorage, SceneWithoutColourBakesTheSame) {
+  for (const char* rel : {"/oak-tree/oaktree.gltf", "/redeclipse-tree01/tree01.obj"}) {
+    const std::string path = std::string(SOMM_DATA_DIR) + rel;
+    if (!std::filesystem::exists(path)) continue;
+    SCOPED_TRACE(path);
+    auto full = loadScene(path);
+    LoadOptions lo;
+    lo.loadColor = false;
+    auto lean = loadScene(path, lo);
+    ASSERT_TRUE(full.ok() && lean.ok());
+    bool anyColour = false;
+    for (const Material& m : full->materials) anyColour |= bool(m.baseColor);
+    EXPECT_TRUE(anyColour);
+    for (const Material& m : lean->materials) EXPECT_FALSE(m.baseColor);
+    for (uint32_t level : {3u, 6u}) {
+      BakeOptions o;
+      o.level = level;
+      o.blend = BlendAs::Unknown;
+      auto a = bakeScene(*full, o), b = bakeScene(*lean, o);
+      ASSERT_TRUE(a.ok() && b.ok());
+      expectSameArray(a->micromaps.arrays[0], b->micromaps.arrays[0]);
+    }
   }
 }
 

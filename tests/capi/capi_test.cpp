@@ -502,6 +502,7 @@ TEST(CApi, OakTreeEqualsSommBakeAndExport) {
   auto scene = somm::loadScene(path);
   ASSERT_TRUE(scene) << scene.error().message;
   std::vector<somm_texture> texs(scene->materials.size());
+  std::vector<std::vector<float>> floats(scene->materials.size());
   std::vector<somm_material> ms;
   for (size_t m = 0; m < scene->materials.size(); ++m) {
     const somm::Material& sm = scene->materials[m];
@@ -509,8 +510,9 @@ TEST(CApi, OakTreeEqualsSommBakeAndExport) {
     cm.alpha_mode = somm_alpha_mode(sm.alphaMode);
     if (sm.alpha) {
       texs[m] = somm_texture_default();
-      texs[m].data = sm.alpha->alpha.data();
-      texs[m].size = sm.alpha->alpha.size() * sizeof(float);
+      floats[m] = sm.alpha->values();
+      texs[m].data = floats[m].data();
+      texs[m].size = floats[m].size() * sizeof(float);
       texs[m].width = sm.alpha->width;
       texs[m].height = sm.alpha->height;
       texs[m].format = SOMM_TEXEL_R32F;

@@ -51,7 +51,7 @@ TEST(GlbWriter, LeafCardsRoundTripExactly) {
   EXPECT_TRUE(r->warnings.empty());
   expectSameGeometry(s, *r);
   EXPECT_EQ(r->geometries[0].name, "cards/0");
-  EXPECT_EQ(r->materials[0].alpha->alpha, s.materials[0].alpha->alpha);  // binary alpha: exact
+  EXPECT_EQ(r->materials[0].alpha->values(), s.materials[0].alpha->values());  // binary alpha: exact
   ASSERT_TRUE(r->camera.has_value());
   for (int k = 0; k < 3; ++k) {
     EXPECT_NEAR(r->camera->eye[size_t(k)], s.camera->eye[size_t(k)], 1e-6);
@@ -74,9 +74,10 @@ TEST(GlbWriter, QuadSamplersAndSoftAlpha) {
     ASSERT_TRUE(r.ok()) << r.error().message;
     expectSameGeometry(s, *r);
     EXPECT_EQ(r->materials[0].sampler, smp);
-    const auto& a = r->materials[0].alpha->alpha;
-    ASSERT_EQ(a.size(), tex->alpha.size());
-    for (size_t i = 0; i < a.size(); ++i) EXPECT_NEAR(a[i], tex->alpha[i], 0.5 / 65535 + 1e-7);
+    const somm::AlphaTexture& a = *r->materials[0].alpha;
+    ASSERT_TRUE(a.consistent());
+    ASSERT_EQ(a.texelCount(), tex->alpha.size());
+    for (size_t i = 0; i < a.texelCount(); ++i) EXPECT_NEAR(a.texel(i), tex->alpha[i], 0.5 / 65535 + 1e-7);
   }
 }
 
@@ -94,7 +95,8 @@ TEST(GlbWriter, RealScenesRoundTrip) {
     for (size_t i = 0; i < a->materials.size(); ++i) {
       const somm::Material &x = a->materials[i], &y = b->materials[i];
       if (x.alpha) {
-        EXPECT_EQ(x.alpha->alpha, y.alpha->alpha);  // 8-bit source alpha survives 16-bit storage exactly
+        EXPECT_EQ(x.alpha->values(),
+                  y.alpha->values());  // 8-bit source alpha survives 16-bit storage exactly
       }
       ASSERT_EQ(bool(x.baseColor), bool(y.baseColor));
       if (x.baseColor && !x.alpha) {

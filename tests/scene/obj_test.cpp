@@ -227,8 +227,29 @@ TEST(Obj, SixteenBitPng) {
   auto r = loadQuad(dir, "map_d a16.png\n");
   ASSERT_TRUE(r.ok()) << r.error().message;
   const somm::AlphaTexture& a = *r->materials[0].alpha;
-  EXPECT_EQ(a.alpha,
+  EXPECT_EQ(a.storage, somm::AlphaStorage::UInt16);  // kept at the image's precision
+  EXPECT_EQ(a.alpha16, (std::vector<uint16_t>{65534, 0, 32768, 1}));
+  EXPECT_EQ(a.values(),
             (std::vector<float>{float(65534 / 65535.0), 0.0f, float(32768 / 65535.0), float(1 / 65535.0)}));
+}
+
+// An 8-bit PNG's alpha stays 8-bit (one byte per texel) with the loader's floats exactly; a luminance of a colour
+// image is no stored value and stays float.
+TEST(Obj, EightBitAlphaStaysEightBit) {
+  TempDir dir;
+  scenetest::writeBytes(dir.file("a8.png"), scenetest::encodePng8(2, 2, 2, {0, 0, 9, 128, 7, 255, 1, 1}));
+  auto r = loadQuad(dir, "map_d a8.png\n");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  const somm::AlphaTexture& a = *r->materials[0].alpha;
+  EXPECT_EQ(a.storage, somm::AlphaStorage::UInt8);
+  EXPECT_TRUE(a.alpha.empty());
+  EXPECT_EQ(a.alpha8, (std::vector<uint8_t>{255, 1, 0, 128}));  // rows flipped (OBJ)
+  EXPECT_EQ(a.memoryBytes(), 4u);
+  EXPECT_EQ(a.values(), (std::vector<float>{1.0f, float(1 / 255.0), 0.0f, float(128 / 255.0)}));
+  scenetest::writeBytes(dir.file("c8.png"), scenetest::encodePng8(1, 1, 3, {10, 20, 30}));
+  auto c = loadQuad(dir, "map_d -imfchan l c8.png\n");
+  ASSERT_TRUE(c.ok()) << c.error().message;
+  EXPECT_EQ(c->materials[0].alpha->storage, somm::AlphaStorage::Float32);
 }
 
 TEST(Obj, ImageFormats) {

@@ -18,7 +18,7 @@ struct AlphaCounts {
 };
 AlphaCounts countAlpha(const somm::AlphaTexture& t) {
   AlphaCounts c;
-  for (float a : t.alpha) (a == 0.0f ? c.zero : a == 1.0f ? c.one : c.partial) += 1;
+  for (float a : t.values()) (a == 0.0f ? c.zero : a == 1.0f ? c.one : c.partial) += 1;
   return c;
 }
 
@@ -189,7 +189,7 @@ TEST(RealScenes, AlphaBlendModeTest) {
   EXPECT_EQ(b2.alphaMode, somm::AlphaMode::Mask);
   EXPECT_EQ(b2.alphaCutoff, 0.5f);
   ASSERT_TRUE(b2.alpha);
-  EXPECT_EQ(b2.alpha->alpha, a.alpha);
+  EXPECT_EQ(b2.alpha->values(), a.values());
   EXPECT_TRUE(r2->warnings.empty());
 }
 

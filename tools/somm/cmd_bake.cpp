@@ -141,6 +141,7 @@ int run(const Options& o) {
   // ---- scene ----
   somm::LoadOptions lo;
   lo.blendAsMask = o.blendAsMask;
+  lo.loadColor = false;  // the bake needs only the alpha
   if (!applyLimits("bake", o.limits, lo.limits)) return kExitUsage;
   if (!o.output.empty())
     if (somm::Status s = somm::checkOutputPath(o.output, {o.scene}); !s) return usage(s.error().message);

@@ -197,6 +197,16 @@ struct BakeInputs {
 // (through a table for 8/16-bit formats, never a float copy). Building it is O(W·H); bakeScene builds one per
 // distinct (texture, scale, sampler, cutoff) and shares it by every geometry and material. The texture must outlive
 // the mask.
+// Forced inlining for AlphaMask's per-texel queries (the classifier's hot loops; GCC otherwise keeps texel() out of
+// line).
+#if defined(__GNUC__) || defined(__clang__)
+#define SOMM_BAKE_INLINE __attribute__((always_inline)) inline
+#elif defined(_MSC_VER)
+#define SOMM_BAKE_INLINE __forceinline
+#else
+#define SOMM_BAKE_INLINE inline
+#endif
+
 class AlphaMask {
  public:
   AlphaMask() = default;
@@ -212,7 +222,7 @@ class AlphaMask {
   float cutoff() const noexcept { return cutoff_; }
 
   // The alpha of texel (x, y) (0 <= x < W, 0 <= y < H) as the alpha test sees it.
-  float texel(uint32_t x, uint32_t y) const noexcept {
+  SOMM_BAKE_INLINE float texel(uint32_t x, uint32_t y) const noexcept {
     const uint8_t* p = base_ + size_t(y) * pitch_ + size_t(x) * bpp_;
     if (kind_ == Kind::U8) return lut_[*p];
     if (kind_ == Kind::U16) {
@@ -240,7 +250,7 @@ class AlphaMask {
 
   // The alpha test of the 64 texels (x, y) .. (x + 63, y) of row y (x < W, y < H) as bits 0..63; bits for texels at
   // or beyond W are unspecified. (docs/baking.md "Pass bits".)
-  uint64_t passBits(uint32_t x, uint32_t y) const noexcept {
+  SOMM_BAKE_INLINE uint64_t passBits(uint32_t x, uint32_t y) const noexcept {
     const uint64_t* row = bits_.data() + size_t(y) * words_ + (x >> 6);
     const uint32_t s = x & 63u;
     return s ? (row[0] >> s) | (row[1] << (64 - s)) : row[0];

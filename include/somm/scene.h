@@ -98,7 +98,7 @@ struct LoadOptions {
   // Keep the base colour images (Material::baseColor) for shading. False: baseColor stays null and only what the
   // alpha test needs is kept (`somm bake`: the images are still decoded, for their alpha, then dropped).
   bool loadColor = true;
-  Limits limits;             // file sizes, image pixels, nodes, instances (docs/hardening.md)
+  Limits limits;  // file sizes, image pixels, nodes, instances (docs/hardening.md)
 };
 
 // Loads .gltf, .glb or .obj (by extension). Errors name the file and the problem. See docs/scene.md.

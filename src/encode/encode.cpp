@@ -995,9 +995,9 @@ uint64_t newIdentity() {
   return next.fetch_add(1, std::memory_order_relaxed);
 }
 
-constexpr uint32_t kMagic = 0x434e4553;   // "SENC"
-constexpr uint8_t kVersion = 1;           // arrays without the sdag directory
-constexpr uint8_t kVersionTiers = 2;      // the old sdag layout: directory with tiers, 16/32-bit index buffer
+constexpr uint32_t kMagic = 0x434e4553;  // "SENC"
+constexpr uint8_t kVersion = 1;          // arrays without the sdag directory
+constexpr uint8_t kVersionTiers = 2;     // the old sdag layout: directory with tiers, 16/32-bit index buffer
 constexpr uint8_t kVersionTwoBitUniform = 3;  // the old sdag layout: 2-bit uniform states (4-state)
 constexpr uint8_t kVersionDirectory = 4;  // arrays with it (directory with tiers + the packed index buffer)
 

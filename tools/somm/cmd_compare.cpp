@@ -127,6 +127,7 @@ void printSdagAnalysis(const somm::EncodedArray& a) {
   uint64_t once = 0;
   for (auto& [o, u] : h2use) once += u == 1;
   std::vector<uint64_t> h2u;
+  h2u.reserve(h2use.size());
   for (auto& [o, u] : h2use) h2u.push_back(u);
   std::fprintf(
       stderr,
@@ -146,6 +147,7 @@ void printSdagAnalysis(const somm::EncodedArray& a) {
     std::vector<uint64_t> hv;
     std::map<int32_t, uint64_t> full;
     for (int32_t v : a.indices()) ++full[v];
+    hv.reserve(full.size());
     for (auto& [v, c] : full) hv.push_back(c);
     std::fprintf(stderr,
                  "index: %zu triangles, maps %llu, -1 %llu, -2 %llu, -3 %llu, -4 %llu, runs %llu, H %.0f B\n",

@@ -71,12 +71,13 @@ inline void checkError(const char* target, const Error& e, const std::string& pa
 // What the baker and the tracer rely on.
 inline void checkScene(const char* target, const Scene& s) {
   for (const Material& m : s.materials) {
-    if (m.alpha && (m.alpha->width == 0 || m.alpha->height == 0 ||
-                    m.alpha->alpha.size() != size_t(m.alpha->width) * m.alpha->height))
+    if (m.alpha && (m.alpha->width == 0 || m.alpha->height == 0 || !m.alpha->consistent()))
       fail(target, "alpha texture size");
     if (m.alpha)
-      for (float a : m.alpha->alpha)
+      for (size_t i = 0; i < m.alpha->texelCount(); ++i) {
+        const float a = m.alpha->texel(i);
         if (!(a >= 0.0f && a <= 1.0f)) fail(target, "alpha outside [0, 1]");
+      }
     if (m.baseColor && m.baseColor->rgba.size() != size_t(m.baseColor->width) * m.baseColor->height * 4)
       fail(target, "colour image size");
   }

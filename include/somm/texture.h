@@ -98,23 +98,25 @@ struct AlphaTexture {
     return storage == AlphaStorage::UInt8 ? t8 : t16;
   }
   static AlphaTexture fromUInt8(uint32_t w, uint32_t h, std::vector<uint8_t> values, float scale = 1.0f) {
-    AlphaTexture t;
-    t.width = w;
-    t.height = h;
-    t.storage = AlphaStorage::UInt8;
+    AlphaTexture t = integer(w, h, AlphaStorage::UInt8, scale);
     t.alpha8 = std::move(values);
-    t.scale = scale;
-    t.lut = table(AlphaStorage::UInt8, scale);
     return t;
   }
   static AlphaTexture fromUInt16(uint32_t w, uint32_t h, std::vector<uint16_t> values, float scale = 1.0f) {
+    AlphaTexture t = integer(w, h, AlphaStorage::UInt16, scale);
+    t.alpha16 = std::move(values);
+    return t;
+  }
+
+ private:
+  // A w × h texture of integer storage with its table, texels not yet set.
+  static AlphaTexture integer(uint32_t w, uint32_t h, AlphaStorage storage, float scale) {
     AlphaTexture t;
     t.width = w;
     t.height = h;
-    t.storage = AlphaStorage::UInt16;
-    t.alpha16 = std::move(values);
+    t.storage = storage;
     t.scale = scale;
-    t.lut = table(AlphaStorage::UInt16, scale);
+    t.lut = table(storage, scale);
     return t;
   }
 };

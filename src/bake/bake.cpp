@@ -1204,13 +1204,11 @@ AlphaMask::AlphaMask(const AlphaTexture& texture, const Sampler& sampler, float 
       base_ = texture.alpha8.data();
       bpp_ = 1;
       kind_ = Kind::U8;
-      lut_ = *texture.lut;
       break;
     case AlphaStorage::UInt16:
       base_ = reinterpret_cast<const uint8_t*>(texture.alpha16.data());
       bpp_ = 2;
       kind_ = Kind::U16;
-      lut_ = *texture.lut;
       break;
     case AlphaStorage::Float32:
       base_ = reinterpret_cast<const uint8_t*>(texture.alpha.data());
@@ -1218,6 +1216,7 @@ AlphaMask::AlphaMask(const AlphaTexture& texture, const Sampler& sampler, float 
       kind_ = Kind::F32;
       break;
   }
+  if (kind_ != Kind::F32) lut_ = *texture.lut;
   pitch_ = size_t(w_) * bpp_;
   build();
 }
@@ -1233,15 +1232,13 @@ AlphaMask::AlphaMask(const TextureView& t, const Sampler& sampler, float cutoff,
     case TexelFormat::RGBA8:
       kind_ = Kind::U8;
       base_ = data + t.alphaChannel;
-      lut_.resize(256);
-      for (uint32_t v = 0; v < 256; ++v) lut_[v] = float(double(v) / 255.0);
+      lut_ = *AlphaTexture::table(AlphaStorage::UInt8, alphaScale);
       break;
     case TexelFormat::R16:
     case TexelFormat::RGBA16:
       kind_ = Kind::U16;
       base_ = data + 2 * size_t(t.alphaChannel);
-      lut_.resize(65536);
-      for (uint32_t v = 0; v < 65536; ++v) lut_[v] = float(double(v) / 65535.0);
+      lut_ = *AlphaTexture::table(AlphaStorage::UInt16, alphaScale);
       break;
     case TexelFormat::R32F:
       kind_ = Kind::F32;
@@ -1249,8 +1246,6 @@ AlphaMask::AlphaMask(const TextureView& t, const Sampler& sampler, float cutoff,
       scale_ = alphaScale;
       break;
   }
-  if (kind_ != Kind::F32 && alphaScale != 1.0f)
-    for (float& a : lut_) a = scaled(a, alphaScale);
   build();
 }
 

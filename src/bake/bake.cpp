@@ -2,6 +2,10 @@
 // somm — conservative OMM baking. Algorithm and conservativeness argument: docs/baking.md.
 #include "somm/bake.h"
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_pipeline.h>
@@ -9,6 +13,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -295,7 +300,7 @@ struct TriangleClassifier {
     // A region holding a whole period reads every texel, which pass and fail (box is mixed): O(1) however large.
     if (holdsPeriod(X, Y)) return kMixed;
     if (ext && i1 - i0 < cellLimit && j1 - j0 < cellLimit && (i1 - i0 + 1) * (j1 - j0 + 1) <= cellLimit)
-      return bilinearCells(X, Y, j0, j1);
+      return bilinearCells(X, Y, i0, i1, j0, j1);
     if (j0 == j1) return box;
     if (j1 - j0 > kMaxRows) return kMixed;
     // Exact: per row of cells, the x-extent of the grown triangle within the row.
@@ -352,19 +357,41 @@ struct TriangleClassifier {
       if (px[k] >= 0 && px[k] <= 1 && py[k] >= 0 && py[k] <= 1)
         seen |= fv[k] >= double(cutoff) ? kPass : kFail;
     if (seen == kMixed) return kStop;
+    // Cheaper than clipping, before it: f over the rectangle bbox(T) ∩ [−m, 1 + m]², a superset of T's part in the
+    // grown cell, where a bilinear function takes its extremes at the rectangle's corners. Conclusive only when the
+    // exact bound over the subset would be too (with the same class).
+    const double x0 = std::max(min3(px), -m), x1 = std::min(max3(px), 1 + m);
+    const double y0 = std::max(min3(py), -m), y1 = std::min(max3(py), 1 + m);
+    if (x0 <= x1 && y0 <= y1) {
+      const double g00 = A + B * x0 + C * y0 + D * x0 * y0, g10 = A + B * x1 + C * y0 + D * x1 * y0;
+      const double g01 = A + B * x0 + C * y1 + D * x0 * y1, g11 = A + B * x1 + C * y1 + D * x1 * y1;
+      const unsigned rc = decide(std::min(std::min(g00, g10), std::min(g01, g11)) - grow,
+                                 std::max(std::max(g00, g10), std::max(g01, g11)) + grow, cutoff, tol);
+      if (rc != kMixed) {
+        return rc;
+      }
+    }
     return clippedCell(A, B, C, D, px, py, grow, cutoff, tol);
   }
 
-  unsigned bilinearCells(const double X[3], const double Y[3], int64_t j0, int64_t j1) const noexcept {
+  // [i0, i1] × [j0, j1]: the cells of the grown bounding box.
+  unsigned bilinearCells(const double X[3], const double Y[3], int64_t i0, int64_t i1, int64_t j0,
+                         int64_t j1) const noexcept {
     const double m = margin;
     const Sampler& smp = mask.sampler();
     const float cutoff = mask.cutoff();
     const double tol = 1e-6 * std::max(1.0, std::fabs(double(cutoff)));
     unsigned acc = 0;
     for (int64_t j = j0; j <= j1; ++j) {
-      double xl, xr;
-      if (!slabExtent(X, Y, double(j) - m, double(j + 1) + m, xl, xr)) continue;
-      const int64_t a = cellFloor(xl - m), b = cellFloor(xr + m);
+      // One row: the whole grown triangle lies in the slab, its extent there is its bounding box's (slabExtent
+      // would return the vertices' min and max: the same run).
+      int64_t a = i0, b = i1;
+      if (j0 != j1) {
+        double xl, xr;
+        if (!slabExtent(X, Y, double(j) - m, double(j + 1) + m, xl, xr)) continue;
+        a = cellFloor(xl - m);
+        b = cellFloor(xr + m);
+      }
       if (b - a >= 2) {
         // A run whose corner texels all agree decides all its cells (each by its four corners) in O(1).
         const unsigned run = rect(a, b, j, j);
@@ -420,7 +447,15 @@ struct TriangleClassifier {
   void fill(uint32_t start, uint32_t count, State s) noexcept {
     const uint32_t perByte = format == Format::TwoState ? 8u : 4u;
     if (count >= perByte) {
-      std::memset(bytes + start / perByte, fillByte(format, s), count / perByte);
+      // Nodes just above the leaves fill 1 or 4 bytes: stored directly, not through a memset call.
+      const uint8_t v = fillByte(format, s);
+      if (count == perByte) {
+        bytes[start / perByte] = v;
+      } else if (count == 4 * perByte) {
+        std::memset(bytes + start / perByte, v, 4);
+      } else {
+        std::memset(bytes + start / perByte, v, count / perByte);
+      }
     } else {
       for (uint32_t i = 0; i < count; ++i) writePackedState(bytes, format, start + i, s);
     }
@@ -440,18 +475,46 @@ struct TriangleClassifier {
     return alphaTestPasses(float(top * (1 - fy) + bot * fy), mask.cutoff());
   }
 
+  // True when every point within 1e-6 of the closed triangle (cell space) reads texels inside the texture: x, y ≥ 0
+  // (so truncation is the floor) and ⌊x⌋ + ext < W, ⌊y⌋ + ext < H (no wrapping). Points computed from the
+  // triangle's vertices in double (midpoints, centroids) are within far less than 1e-6 of it.
+  bool samplesInside(const double X[3], const double Y[3]) const noexcept {
+    return min3(X) >= 1e-6 && min3(Y) >= 1e-6 && max3(X) + 1e-6 < double(tw - ext) &&
+           max3(Y) + 1e-6 < double(th - ext);
+  }
+
+  // passesAt for a point whose texels lie inside the texture (see samplesInside): the same texels and the same
+  // arithmetic, without the wrap and the floor's range check.
+  SOMM_BAKE_INLINE bool passesInside(double x, double y) const noexcept {
+    const uint32_t i = uint32_t(x), j = uint32_t(y);
+    if (shift == 0) return alphaTestPasses(mask.texel(i, j), mask.cutoff());
+    const double fx = x - double(i), fy = y - double(j);
+    const double top = double(mask.texel(i, j)) * (1 - fx) + double(mask.texel(i + 1, j)) * fx;
+    const double bot = double(mask.texel(i, j + 1)) * (1 - fx) + double(mask.texel(i + 1, j + 1)) * fx;
+    return alphaTestPasses(float(top * (1 - fy) + bot * fy), mask.cutoff());
+  }
+
+  template <bool kInside>
+  SOMM_BAKE_INLINE bool sampleAt(double x, double y) const noexcept {
+    if constexpr (kInside) {
+      return passesInside(x, y);
+    } else {
+      return passesAt(x, y);
+    }
+  }
+
   // The state an unknown micro-triangle gets: by majority of the alpha test at the centroids of its 4
   // children (ties: its own centroid), or as the 2-state option says.
   // The alpha test at the centroids of the 4 children: how many pass.
+  // Child centroids in barycentric terms: (4,1,1)/6, (1,4,1)/6, (1,1,4)/6 and (1,1,1)/3 (the middle child).
+  static constexpr double kCentroid[4][3] = {
+      {4. / 6, 1. / 6, 1. / 6}, {1. / 6, 4. / 6, 1. / 6}, {1. / 6, 1. / 6, 4. / 6}, {1. / 3, 1. / 3, 1. / 3}};
+  template <bool kInside = false>
   int centroidPasses(const double X[3], const double Y[3]) const noexcept {
-    // Child centroids in barycentric terms: (4,1,1)/6, (1,4,1)/6, (1,1,4)/6 and (1,1,1)/3 (the middle child).
-    static constexpr double w[4][3] = {{4. / 6, 1. / 6, 1. / 6},
-                                       {1. / 6, 4. / 6, 1. / 6},
-                                       {1. / 6, 1. / 6, 4. / 6},
-                                       {1. / 3, 1. / 3, 1. / 3}};
     int pass = 0;
-    for (const auto& b : w)
-      pass += passesAt(b[0] * X[0] + b[1] * X[1] + b[2] * X[2], b[0] * Y[0] + b[1] * Y[1] + b[2] * Y[2]);
+    for (const auto& b : kCentroid)
+      pass +=
+          sampleAt<kInside>(b[0] * X[0] + b[1] * X[1] + b[2] * X[2], b[0] * Y[0] + b[1] * Y[1] + b[2] * Y[2]);
     return pass;
   }
 
@@ -487,15 +550,78 @@ struct TriangleClassifier {
   static constexpr uint8_t kLeafVertex[4][3] = {{0, 3, 4}, {4, 5, 3}, {3, 1, 5}, {5, 4, 2}};
   static constexpr uint8_t kChildOf[6] = {0, 2, 3, 0, 0, 1}, kSlotOf[6] = {0, 1, 2, 1, 2, 1};
   // `vb`: bit k is the alpha test at the parent's vertex k (points 0..2), sampled by the parent's parent.
+  template <bool kInside>
+  void leafSamples(const double cX[4][3], const double cY[4][3], unsigned& vpass,
+                   int pass[4]) const noexcept {
+    for (unsigned p = 3; p < 6; ++p)
+      vpass |= unsigned(sampleAt<kInside>(cX[kChildOf[p]][kSlotOf[p]], cY[kChildOf[p]][kSlotOf[p]])) << p;
+    for (uint32_t c = 0; c < 4; ++c) pass[c] = centroidPasses<kInside>(cX[c], cY[c]);
+  }
+
+#if defined(__SSE2__)
+  // leafSamples<true> for the linear filter, two samples at a time: the 3 edge midpoints and the 16 child centroids
+  // (computed as in centroidPasses) in one lattice, each blended exactly as passesInside does (the same IEEE double
+  // operations, packed; the same rounding to float and comparison), texels read per lane.
+  void linearLeafSamplesInside(const double cX[4][3], const double cY[4][3], unsigned& vpass,
+                               int pass[4]) const noexcept {
+    alignas(16) double xs[20], ys[20];
+    for (unsigned p = 3; p < 6; ++p) {
+      xs[p - 3] = cX[kChildOf[p]][kSlotOf[p]];
+      ys[p - 3] = cY[kChildOf[p]][kSlotOf[p]];
+    }
+    for (uint32_t c = 0; c < 4; ++c)
+      for (uint32_t q = 0; q < 4; ++q) {
+        const double* b = kCentroid[q];
+        xs[3 + 4 * c + q] = b[0] * cX[c][0] + b[1] * cX[c][1] + b[2] * cX[c][2];
+        ys[3 + 4 * c + q] = b[0] * cY[c][0] + b[1] * cY[c][1] + b[2] * cY[c][2];
+      }
+    xs[19] = xs[18];
+    ys[19] = ys[18];
+    const __m128 cut = _mm_set1_ps(mask.cutoff());
+    const __m128d one = _mm_set1_pd(1.0);
+    uint32_t bits = 0;
+    for (int k = 0; k < 20; k += 2) {
+      const __m128d x = _mm_load_pd(xs + k), y = _mm_load_pd(ys + k);
+      const __m128i ix = _mm_cvttpd_epi32(x), iy = _mm_cvttpd_epi32(y);  // x, y ≥ 0: the floor
+      const __m128d fx = _mm_sub_pd(x, _mm_cvtepi32_pd(ix)), fy = _mm_sub_pd(y, _mm_cvtepi32_pd(iy));
+      const uint32_t i0 = uint32_t(_mm_cvtsi128_si32(ix)),
+                     i1 = uint32_t(_mm_cvtsi128_si32(_mm_srli_si128(ix, 4)));
+      const uint32_t j0 = uint32_t(_mm_cvtsi128_si32(iy)),
+                     j1 = uint32_t(_mm_cvtsi128_si32(_mm_srli_si128(iy, 4)));
+      const __m128d c00 = _mm_set_pd(mask.texel(i1, j1), mask.texel(i0, j0));
+      const __m128d c10 = _mm_set_pd(mask.texel(i1 + 1, j1), mask.texel(i0 + 1, j0));
+      const __m128d c01 = _mm_set_pd(mask.texel(i1, j1 + 1), mask.texel(i0, j0 + 1));
+      const __m128d c11 = _mm_set_pd(mask.texel(i1 + 1, j1 + 1), mask.texel(i0 + 1, j0 + 1));
+      const __m128d gx = _mm_sub_pd(one, fx), gy = _mm_sub_pd(one, fy);
+      const __m128d top = _mm_add_pd(_mm_mul_pd(c00, gx), _mm_mul_pd(c10, fx));
+      const __m128d bot = _mm_add_pd(_mm_mul_pd(c01, gx), _mm_mul_pd(c11, fx));
+      const __m128 v = _mm_cvtpd_ps(_mm_add_pd(_mm_mul_pd(top, gy), _mm_mul_pd(bot, fy)));
+      bits |= uint32_t(_mm_movemask_ps(_mm_cmpge_ps(v, cut)) & 3) << k;
+    }
+    vpass |= (bits & 7u) << 3;
+    for (uint32_t c = 0; c < 4; ++c) pass[c] = std::popcount((bits >> (3 + 4 * c)) & 15u);
+  }
+#endif
+
   void leaves(const double cX[4][3], const double cY[4][3], uint32_t prefix, unsigned vb) noexcept {
     work += 4;
     // Every sample first, without branching on any (they are cheap; mispredicted branches are not): the 6 vertices
-    // (bit p: point p passes) and each leaf's 4 child centroids.
+    // (bit p: point p passes) and each leaf's 4 child centroids. The parent's vertices are a (cX[0][0]), b
+    // (cX[2][1]) and c (cX[3][2]); every sample lies in the parent.
     unsigned vpass = vb & 7u;
-    for (unsigned p = 3; p < 6; ++p)
-      vpass |= unsigned(passesAt(cX[kChildOf[p]][kSlotOf[p]], cY[kChildOf[p]][kSlotOf[p]])) << p;
     int pass[4];
-    for (uint32_t c = 0; c < 4; ++c) pass[c] = centroidPasses(cX[c], cY[c]);
+    const double pX[3] = {cX[0][0], cX[2][1], cX[3][2]}, pY[3] = {cY[0][0], cY[2][1], cY[3][2]};
+    if (!samplesInside(pX, pY)) {
+      leafSamples<false>(cX, cY, vpass, pass);
+    } else if (shift == 0) {
+      leafSamples<true>(cX, cY, vpass, pass);
+    } else {
+#if defined(__SSE2__)
+      linearLeafSamplesInside(cX, cY, vpass, pass);
+#else
+      leafSamples<true>(cX, cY, vpass, pass);
+#endif
+    }
     for (uint32_t c = 0; c < 4; ++c) {
       const uint32_t index = prefix * 4 + c;
       const unsigned vbits = ((vpass >> kLeafVertex[c][0]) & 1u) |
@@ -542,13 +668,15 @@ struct TriangleClassifier {
     // Witnesses as in leaves(): a child whose vertices (the points a, b, c, ab, ac, bc of this node) and centroid
     // see both classes has a mixed region, which region() would report too; it is subdivided without the test.
     bool v[6];
+    const bool inside = samplesInside(X, Y);
+    auto sample = [&](double x, double y) { return inside ? passesInside(x, y) : passesAt(x, y); };
     for (int p = 0; p < 3; ++p) v[p] = (vb >> p) & 1u;
-    for (int p = 3; p < 6; ++p) v[p] = passesAt(cX[kChildOf[p]][kSlotOf[p]], cY[kChildOf[p]][kSlotOf[p]]);
+    for (int p = 3; p < 6; ++p) v[p] = sample(cX[kChildOf[p]][kSlotOf[p]], cY[kChildOf[p]][kSlotOf[p]]);
     for (uint32_t c = 0; c < 4; ++c) {
       const bool v0 = v[kLeafVertex[c][0]];
       const bool mixed =
           v[kLeafVertex[c][1]] != v0 || v[kLeafVertex[c][2]] != v0 ||
-          passesAt((cX[c][0] + cX[c][1] + cX[c][2]) / 3, (cY[c][0] + cY[c][1] + cY[c][2]) / 3) != v0;
+          sample((cX[c][0] + cX[c][1] + cX[c][2]) / 3, (cY[c][0] + cY[c][1] + cY[c][2]) / 3) != v0;
       const unsigned cvb = unsigned(v[kLeafVertex[c][0]]) | unsigned(v[kLeafVertex[c][1]]) << 1 |
                            unsigned(v[kLeafVertex[c][2]]) << 2;
       node(cX[c], cY[c], depth + 1, prefix * 4 + c, mixed ? kMixed : region(cX[c], cY[c], kNodeCells), cvb);

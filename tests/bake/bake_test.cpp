@@ -105,6 +105,59 @@ TEST(Classifier, PassBitsAndWrappedPathsAgree) {
     }
 }
 
+// The in-texture sampler (a node whose samples all read texels inside the texture: no wrapping, truncation as the
+// floor) against the general one: small triangles (0.3–6 texels, as leaves of real foliage at levels 3–7) anywhere
+// in an 8-bit leaf-like texture, including within a texel of its border, and their copies one period to the left and
+// one period up, whose samples all wrap (the general path), must get identical maps. Coordinates are multiples of
+// 2^-16 so the shifted copies are exact.
+TEST(Classifier, InTextureSamplerAgreesWithWrappedSampler) {
+  std::mt19937 rng(41);
+  std::uniform_real_distribution<double> d(0.0, 1.0);
+  const uint32_t size = 64;
+  std::vector<uint8_t> texels(size_t(size) * size);
+  for (uint32_t y = 0; y < size; ++y)
+    for (uint32_t x = 0; x < size; ++x) {
+      // Leaf-like blobs with soft one-texel rims and binary interiors.
+      const double v = std::sin(x * 0.31 + 0.4) * std::cos(y * 0.27) * 3.0 + 0.6 * d(rng) - 0.3;
+      texels[size_t(y) * size + x] = uint8_t(std::lround(std::clamp(0.5 + v, 0.0, 1.0) * 255));
+    }
+  const AlphaTexture tex = AlphaTexture::fromUInt8(size, size, texels);
+  for (Filter f : {Filter::Linear, Filter::Nearest}) {
+    const AlphaMask mask(tex, Sampler{Wrap::Repeat, Wrap::Repeat, f}, 0.5f);
+    int compared = 0, interior = 0;
+    for (int t = 0; t < 4000; ++t) {
+      const double scale = 0.3 + 5.7 * d(rng) * d(rng);  // texels
+      const double cx = 0.2 + (size - 0.4) * d(rng), cy = 0.2 + (size - 0.4) * d(rng);
+      std::array<float, 2> p[3], s[3];
+      double X[3], Y[3], SX[3], SY[3];
+      for (int k = 0; k < 3; ++k) {
+        const double x = std::clamp(cx + scale * (d(rng) - 0.5), 0.05, size - 0.05);
+        const double y = std::clamp(cy + scale * (d(rng) - 0.5), 0.05, size - 0.05);
+        p[k] = {float(std::round(x / size * 65536) / 65536), float(std::round(y / size * 65536) / 65536)};
+        s[k] = {p[k][0] - 1.0f, p[k][1] - 1.0f};
+        X[k] = double(p[k][0]) * size;
+        Y[k] = double(p[k][1]) * size;
+        SX[k] = double(s[k][0]) * size;
+        SY[k] = double(s[k][1]) * size;
+      }
+      if (bakeMarginTexels(X, Y) != bakeMarginTexels(SX, SY)) continue;  // another magnitude bracket
+      const uint32_t level = 3 + uint32_t(t % 5);
+      const TriangleBake a = bakeTriangle(mask, p[0], p[1], p[2], level, Format::FourState);
+      const TriangleBake b = bakeTriangle(mask, s[0], s[1], s[2], level, Format::FourState);
+      ASSERT_EQ(a.unknownCount, b.unknownCount) << t;
+      ASSERT_TRUE(a.map.bytes().size() == b.map.bytes().size() &&
+                  std::equal(a.map.bytes().begin(), a.map.bytes().end(), b.map.bytes().begin()))
+          << "triangle " << t << " level " << level << " filter " << int(f);
+      ++compared;
+      interior += a.unknownCount > 0 && std::min({X[0], X[1], X[2]}) > 1 &&
+                  std::min({Y[0], Y[1], Y[2]}) > 1 && std::max({X[0], X[1], X[2]}) < size - 2 &&
+                  std::max({Y[0], Y[1], Y[2]}) < size - 2;
+    }
+    EXPECT_GT(compared, 1500);
+    EXPECT_GT(interior, 200);  // triangles with unknown leaves, away from the border: the in-texture path
+  }
+}
+
 TEST(Tightness, HalfPlaneNearestLeavesOnlyStraddlersUnknown) {
   const AlphaTexture tex = makeTexture(64, 64, [](uint32_t x, uint32_t) { return x < 32 ? 1.0 : 0.0; });
   const AlphaMask mask(tex, Sampler{Wrap::ClampToEdge, Wrap::ClampToEdge, Filter::Nearest}, 0.5f);

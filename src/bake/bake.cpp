@@ -13,7 +13,6 @@
 
 #include <algorithm>
 #include <atomic>
-#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -199,8 +198,11 @@ struct TriangleClassifier {
   }
 
   // The x-extent [xl, xr] of the triangle within the horizontal slab [ya, yb]; false when they do not meet.
-  static bool slabExtent(const double X[3], const double Y[3], double ya, double yb, double& xl,
-                         double& xr) noexcept {
+  // `low` / `high`: whether an edge may cross ya / yb. In the first row of a grown bounding box no vertex lies below
+  // ya = j0 − m (j0 = ⌊min Y − m⌋, and 2m is far above the rounding of min Y − m), in its last row none above yb, so
+  // no edge crosses there and the test is skipped (the same extent).
+  static bool slabExtent(const double X[3], const double Y[3], double ya, double yb, double& xl, double& xr,
+                         bool low = true, bool high = true) noexcept {
     xl = std::numeric_limits<double>::infinity();
     xr = -xl;
     for (int k = 0; k < 3; ++k) {
@@ -210,12 +212,15 @@ struct TriangleClassifier {
       }
       const int k1 = k == 2 ? 0 : k + 1;
       const double dy = Y[k1] - Y[k];
-      for (const double c : {ya, yb}) {
-        if ((Y[k] < c && Y[k1] > c) || (Y[k] > c && Y[k1] < c)) {
-          const double x = X[k] + (c - Y[k]) / dy * (X[k1] - X[k]);
-          xl = std::min(xl, x);
-          xr = std::max(xr, x);
-        }
+      if (low && ((Y[k] < ya && Y[k1] > ya) || (Y[k] > ya && Y[k1] < ya))) {
+        const double x = X[k] + (ya - Y[k]) / dy * (X[k1] - X[k]);
+        xl = std::min(xl, x);
+        xr = std::max(xr, x);
+      }
+      if (high && ((Y[k] < yb && Y[k1] > yb) || (Y[k] > yb && Y[k1] < yb))) {
+        const double x = X[k] + (yb - Y[k]) / dy * (X[k1] - X[k]);
+        xl = std::min(xl, x);
+        xr = std::max(xr, x);
       }
     }
     return xl <= xr;
@@ -309,7 +314,7 @@ struct TriangleClassifier {
       if (budget == 0) return kMixed;
       spend(1);
       double xl, xr;
-      if (!slabExtent(X, Y, double(j) - m, double(j + 1) + m, xl, xr)) continue;
+      if (!slabExtent(X, Y, double(j) - m, double(j + 1) + m, xl, xr, j > j0, j < j1)) continue;
       acc |= rect(cellFloor(xl - m), cellFloor(xr + m), j, j);
       if (acc == kMixed) return kMixed;
     }
@@ -388,7 +393,7 @@ struct TriangleClassifier {
       int64_t a = i0, b = i1;
       if (j0 != j1) {
         double xl, xr;
-        if (!slabExtent(X, Y, double(j) - m, double(j + 1) + m, xl, xr)) continue;
+        if (!slabExtent(X, Y, double(j) - m, double(j + 1) + m, xl, xr, j > j0, j < j1)) continue;
         a = cellFloor(xl - m);
         b = cellFloor(xr + m);
       }
@@ -503,6 +508,10 @@ struct TriangleClassifier {
     }
   }
 
+  SOMM_BAKE_INLINE bool sampleWhere(bool inside, double x, double y) const noexcept {
+    return inside ? passesInside(x, y) : passesAt(x, y);
+  }
+
   // The state an unknown micro-triangle gets: by majority of the alpha test at the centroids of its 4
   // children (ties: its own centroid), or as the 2-state option says.
   // The alpha test at the centroids of the 4 children: how many pass.
@@ -599,7 +608,9 @@ struct TriangleClassifier {
       bits |= uint32_t(_mm_movemask_ps(_mm_cmpge_ps(v, cut)) & 3) << k;
     }
     vpass |= (bits & 7u) << 3;
-    for (uint32_t c = 0; c < 4; ++c) pass[c] = std::popcount((bits >> (3 + 4 * c)) & 15u);
+    // Set bits of a 4-bit value v: nibble v of 0x4332'3221'3221'2110 (no popcnt instruction in the x86-64 baseline).
+    for (uint32_t c = 0; c < 4; ++c)
+      pass[c] = int((0x4332322132212110ull >> (4 * ((bits >> (3 + 4 * c)) & 15u))) & 15u);
   }
 #endif
 
@@ -669,14 +680,14 @@ struct TriangleClassifier {
     // see both classes has a mixed region, which region() would report too; it is subdivided without the test.
     bool v[6];
     const bool inside = samplesInside(X, Y);
-    auto sample = [&](double x, double y) { return inside ? passesInside(x, y) : passesAt(x, y); };
     for (int p = 0; p < 3; ++p) v[p] = (vb >> p) & 1u;
-    for (int p = 3; p < 6; ++p) v[p] = sample(cX[kChildOf[p]][kSlotOf[p]], cY[kChildOf[p]][kSlotOf[p]]);
+    for (int p = 3; p < 6; ++p)
+      v[p] = sampleWhere(inside, cX[kChildOf[p]][kSlotOf[p]], cY[kChildOf[p]][kSlotOf[p]]);
     for (uint32_t c = 0; c < 4; ++c) {
       const bool v0 = v[kLeafVertex[c][0]];
-      const bool mixed =
-          v[kLeafVertex[c][1]] != v0 || v[kLeafVertex[c][2]] != v0 ||
-          sample((cX[c][0] + cX[c][1] + cX[c][2]) / 3, (cY[c][0] + cY[c][1] + cY[c][2]) / 3) != v0;
+      const bool mixed = v[kLeafVertex[c][1]] != v0 || v[kLeafVertex[c][2]] != v0 ||
+                         sampleWhere(inside, (cX[c][0] + cX[c][1] + cX[c][2]) / 3,
+                                     (cY[c][0] + cY[c][1] + cY[c][2]) / 3) != v0;
       const unsigned cvb = unsigned(v[kLeafVertex[c][0]]) | unsigned(v[kLeafVertex[c][1]]) << 1 |
                            unsigned(v[kLeafVertex[c][2]]) << 2;
       node(cX[c], cY[c], depth + 1, prefix * 4 + c, mixed ? kMixed : region(cX[c], cY[c], kNodeCells), cvb);

@@ -547,10 +547,31 @@ constexpr uint32_t sdagIndexBits(uint64_t maps) noexcept {
 constexpr uint64_t packedIndexBytes(uint64_t triangles, uint32_t bits) noexcept {
   return (triangles * bits + 7) / 8;
 }
-inline int32_t packedIndex(const uint8_t* p, uint32_t bits, uint32_t t) noexcept {
-  const uint64_t pos = uint64_t(t) * bits, top = uint64_t(1) << bits;
+SOMM_ENCODE_INLINE int32_t packedIndex(const uint8_t* p, uint32_t bits, uint64_t t) noexcept {
+  const uint64_t pos = t * bits, top = uint64_t(1) << bits;
   const uint64_t v = (load64(p + (pos >> 3)) >> (pos & 7u)) & (top - 1u);
   return v >= top - 4u ? int32_t(int64_t(v) - int64_t(top)) : int32_t(v);
+}
+// The rank-packed index buffer (flags bit 1; chosen when smaller than the plain one): the triangles whose value
+// differs from the array's most common one (the "default") are listed, the others only flagged. Per group of 32
+// triangles one 64-bit word: bits 0..31 = the number of listed triangles in the groups before, bits 32..63 = the
+// group's mask (bit j: triangle 32g + j is listed). Then the value list, k bits per entry as in the plain buffer:
+// entry 0 = the default value, entry 1 + r = the value of the r-th listed triangle (triangle order).
+// Random access: the group word, then one entry (a listed triangle's or entry 0).
+inline constexpr uint32_t kRankIndexGroup = 32;
+constexpr uint64_t rankIndexGroups(uint64_t triangles) noexcept {
+  return (triangles + kRankIndexGroup - 1) / kRankIndexGroup;
+}
+constexpr uint64_t rankIndexBytes(uint64_t triangles, uint64_t listed, uint32_t bits) noexcept {
+  return 8 * rankIndexGroups(triangles) + packedIndexBytes(listed + 1, bits);
+}
+SOMM_ENCODE_INLINE int32_t rankPackedIndex(const uint8_t* p, uint32_t bits, uint64_t groups,
+                                           uint32_t t) noexcept {
+  const uint64_t w = load64(p + 8 * uint64_t(t >> 5));
+  const uint32_t j = t & 31u, m = uint32_t(w >> 32);
+  const uint64_t below = popcount64(uint64_t(m) & ((uint64_t(1) << j) - 1u));
+  const uint64_t entry = ((m >> j) & 1u) ? 1 + uint32_t(w) + below : 0;
+  return packedIndex(p + 8 * groups, bits, entry);
 }
 
 // Encode / decode one map. Encoding a map is deterministic and canonical (maximal collapse).
@@ -593,8 +614,11 @@ class EncodedArray {
   // Bits per triangle of the serialized index buffer: 0 = the spec's 16/32-bit buffer (indexType()); k > 0 = the
   // packed buffer of arrays with the sdag directory (encode::sdagIndexBits), which the sdag lookup reads.
   uint32_t indexBits() const noexcept { return indexBits_; }
+  // The packed buffer is rank-packed (encode::rankPackedIndex: only the triangles whose value is not the most
+  // common one are listed), chosen per array when that is smaller than k bits per triangle.
+  bool indexRankPacked() const noexcept { return indexGroups_ != 0; }
   uint64_t indexBufferBytes() const noexcept {
-    return indexBits_ ? encode::packedIndexBytes(indices_.size(), indexBits_)
+    return indexBits_ ? packed_.size() - encode::kTailPadding
                       : uint64_t(indices_.size()) * uint64_t(indexType_);
   }
   // The sdag directory (zero unless hasDirectory(): always for sdag, for hybrid when a map is of kind Sdag).
@@ -682,7 +706,11 @@ class EncodedArray {
   // buffer, the others the spec one.
   template <Encoding E>
   int32_t indexAs(uint32_t triangle) const noexcept {
-    if constexpr (E == Encoding::Sdag) return encode::packedIndex(packed_.data(), indexBits_, triangle);
+    if constexpr (E == Encoding::Sdag) {
+      if (indexGroups_ != 0)
+        return encode::rankPackedIndex(packed_.data(), indexBits_, indexGroups_, triangle);
+      return encode::packedIndex(packed_.data(), indexBits_, triangle);
+    }
     return indices_[triangle];
   }
 
@@ -737,7 +765,7 @@ class EncodedArray {
     return a.encoding_ == b.encoding_ && a.indexType_ == b.indexType_ && a.indices_ == b.indices_ &&
            a.maps_ == b.maps_ && a.data_ == b.data_ && a.dataBytes_ == b.dataBytes_ &&
            a.hasDirectory_ == b.hasDirectory_ && a.dir_ == b.dir_ && a.indexBits_ == b.indexBits_ &&
-           a.packed_ == b.packed_;
+           a.packed_ == b.packed_ && a.indexGroups_ == b.indexGroups_;
   }
   friend bool operator!=(const EncodedArray& a, const EncodedArray& b) noexcept { return !(a == b); }
 
@@ -753,6 +781,7 @@ class EncodedArray {
   uint64_t identity_ = 0;        // unique per content (build / parse), the key of encode::sdagMemo
   uint32_t indexBits_ = 0;       // > 0 iff hasDirectory_
   std::vector<uint8_t> packed_;  // the packed index buffer (indexBits_ > 0) + kTailPadding zero bytes
+  uint64_t indexGroups_ = 0;     // > 0 iff the packed buffer is rank-packed: its number of 32-triangle groups
   void packIndices();
 };
 

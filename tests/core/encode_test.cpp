@@ -116,6 +116,19 @@ OmmArray arrayOf(const std::vector<Micromap>& maps) {
   return a;
 }
 
+// Bytes of the packed index buffer of an array with the sdag directory, from docs/encodings.md: k bits per
+// triangle, or the rank-packed buffer (8 bytes per 32 triangles + (listed + 1) entries of k bits, listed = the
+// triangles whose value is not the most common one) when that is strictly smaller.
+uint64_t packedIndexBufferBytes(const std::vector<int32_t>& indices, uint64_t maps) {
+  const uint32_t k = encode::sdagIndexBits(maps);
+  std::map<int32_t, uint64_t> count;
+  uint64_t most = 0;
+  for (int32_t i : indices) most = std::max(most, ++count[i]);
+  const uint64_t plain = (indices.size() * k + 7) / 8;
+  const uint64_t rank = 8 * ((indices.size() + 31) / 32) + ((indices.size() - most + 1) * k + 7) / 8;
+  return !indices.empty() && rank < plain ? rank : plain;
+}
+
 // Internal nodes of the collapsed tree, counted by brute force from the flat map (independent of the
 // encoder).
 encode::TreeShape bruteShape(const Micromap& m) {
@@ -318,9 +331,8 @@ TYPED_TEST(EncodeTest, SizesEqualTheFormulas) {
   ASSERT_EQ(e.mapCount(), maps.size());
   if (isDag(TestFixture::kE)) {  // one shared DAG: only the framing has a closed form (see DagSizes tests)
     EXPECT_EQ(e.paddingBytes(), encode::kTailPadding);
-    const uint64_t indexBytes = e.hasDirectory()
-                                    ? (oracle.indices.size() * encode::sdagIndexBits(maps.size()) + 7) / 8
-                                    : 2u * oracle.indices.size();
+    const uint64_t indexBytes =
+        e.hasDirectory() ? packedIndexBufferBytes(oracle.indices, maps.size()) : 2u * oracle.indices.size();
     EXPECT_EQ(e.indexBufferBytes(), indexBytes);
     EXPECT_EQ(e.byteSize(), 20u + indexBytes + 8u * maps.size() + e.dataBytes() + 8u);
     EXPECT_EQ(e.serialize().size(), e.byteSize());
@@ -334,7 +346,7 @@ TYPED_TEST(EncodeTest, SizesEqualTheFormulas) {
           {formulaBytes(MapKind::Flat, m), formulaBytes(MapKind::Dfs, m), formulaBytes(MapKind::Rank, m)});
     // (with the directory the index buffer is packed: the data + index bytes are compared)
     EXPECT_LT(e.dataBytes() + e.indexBufferBytes(), plain + 2u * oracle.indices.size());
-    EXPECT_EQ(e.indexBufferBytes(), (oracle.indices.size() * encode::sdagIndexBits(maps.size()) + 7) / 8);
+    EXPECT_EQ(e.indexBufferBytes(), packedIndexBufferBytes(oracle.indices, maps.size()));
     EXPECT_EQ(e.byteSize(), 20u + e.indexBufferBytes() + 8u * maps.size() + e.dataBytes() + 8u);
     return;
   }
@@ -442,6 +454,7 @@ TYPED_TEST(EncodeTest, CorruptBytesRejected) {
   b = good;
   if (e.indexBits() != 0) {
     ASSERT_EQ(e.indexBits(), 3u);
+    ASSERT_FALSE(e.indexRankPacked());    // 7 triangles: k bits each is smaller
     b[20] = uint8_t((b[20] & ~7u) | 3u);  // packed value 3 with 3 maps (4..7 are the specials)
   } else {
     b[20] = 7;  // index 7 with 3 maps
@@ -538,7 +551,8 @@ TEST(EncodeDag, WorkedExampleLayouts) {
   EXPECT_EQ(sdag.data()[81], 0x00);
   EXPECT_EQ(sdag.data()[82], 0x2c);
   EXPECT_EQ(sdag.serialize()[4],
-            4u);  // arrays with the directory (and the packed index buffer) are version 4
+            5u);  // arrays with the directory (and the packed index buffer) are version 5
+  EXPECT_EQ(sdag.serialize()[7], 1u);  // the directory; the index buffer is not rank-packed (5 triangles)
   EXPECT_EQ(sdag.serialize()[6], 3u);  // one map: k = bits for 0 .. 1 + 3
   // triangles 0..4 → map 0, then -1..-4 as 7, 6, 5, 4 (3 bits each): 0x4bb8
   EXPECT_EQ(sdag.serialize()[20], 0xb8);
@@ -595,6 +609,12 @@ TEST(EncodeDag, WorkedExampleTieredReferences) {
   ASSERT_FALSE(v3);
   EXPECT_EQ(v3.error().code, ErrorCode::UnsupportedFormat);
   EXPECT_NE(v3.error().message.find("version 3"), std::string::npos) << v3.error().message;
+  // Version 4 (no rank-packed index buffer) is refused clearly too.
+  bytes[4] = 4;
+  const auto v4 = EncodedArray::parse(bytes, "v4.somm");
+  ASSERT_FALSE(v4);
+  EXPECT_EQ(v4.error().code, ErrorCode::UnsupportedFormat);
+  EXPECT_NE(v4.error().message.find("version 4"), std::string::npos) << v4.error().message;
 }
 
 // docs/encodings.md's third worked example: 4-state uniform children take 1 bit; a uniformly unknown child is a
@@ -663,6 +683,77 @@ TEST(EncodeDag, PackedIndexBuffer) {
   std::vector<uint8_t> width = bytes;
   width[6] = 4;
   EXPECT_FALSE(EncodedArray::parse(width));
+}
+
+// docs/encodings.md's rank-packed index buffer example: 100 triangles, all opaque (-2) but four; M = 2, k = 3.
+// Exact bytes, every lookup, round trip, and the corruptions the parser refuses.
+TEST(EncodeDag, RankPackedIndexBuffer) {
+  Micromap a(2, Format::FourState), b(3, Format::FourState);
+  for (uint32_t i = 0; i < 16; ++i) a.set(i, State(i & 3));
+  for (uint32_t i = 0; i < 64; ++i) b.set(i, State((i >> 2) & 3));
+  OmmArray arr = arrayOf({a, b});
+  arr.indices.assign(100, -2);
+  arr.indices[1] = 0;
+  arr.indices[33] = 1;
+  arr.indices[35] = -1;
+  arr.indices[99] = 0;
+  const EncodedArray e = EncodedArray::build(arr, Encoding::Sdag).value();
+  ASSERT_EQ(e.indexBits(), 3u);
+  ASSERT_TRUE(e.indexRankPacked());
+  ASSERT_EQ(e.indexBufferBytes(), 34u);  // 4 group words + 5 entries of 3 bits (plain: 300 bits = 38 bytes)
+  EXPECT_EQ(packedIndexBufferBytes(arr.indices, 2), 34u);
+  const std::vector<uint8_t> bytes = e.serialize();
+  EXPECT_EQ(bytes[4], 5u);
+  EXPECT_EQ(bytes[7], 3u);  // the directory + the rank-packed index buffer
+  const std::vector<uint8_t> index{
+      0x00, 0x00, 0x00, 0x00, 0x02, 0x00, 0x00, 0x00,  // group 0: 0 listed before, triangle 1
+      0x01, 0x00, 0x00, 0x00, 0x0a, 0x00, 0x00, 0x00,  // group 1: 1 before, triangles 33, 35
+      0x03, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,  // group 2: 3 before, none
+      0x03, 0x00, 0x00, 0x00, 0x08, 0x00, 0x00, 0x00,  // group 3 (triangles 96..99): 3 before, triangle 99
+      0x46, 0x0e};  // entries 6 (the default, -2), 0, 1, 7 (-1), 0: 3 bits each
+  EXPECT_EQ(std::vector<uint8_t>(bytes.begin() + 20, bytes.begin() + 54), index);
+  for (uint32_t t = 0; t < 100; ++t) {
+    EXPECT_EQ(e.indexAs<Encoding::Sdag>(t), arr.indices[t]) << t;
+    EXPECT_EQ(e.stateAs<Encoding::Sdag>(t, 5), arr.state(t, 5)) << t;
+  }
+  const EncodedArray back = EncodedArray::parse(bytes).value();
+  EXPECT_EQ(back, e);
+  EXPECT_TRUE(back.indexRankPacked());
+  EXPECT_EQ(std::vector<int32_t>(back.indices().begin(), back.indices().end()), arr.indices);
+  auto refused = [&](std::vector<uint8_t> bad, const char* what) {
+    EXPECT_FALSE(EncodedArray::parse(bad)) << what;
+  };
+  std::vector<uint8_t> bad = bytes;
+  bad[28] = 2;  // group 1 claims 2 listed triangles before it
+  refused(bad, "count");
+  bad = bytes;
+  bad[44 + 4] |= 0x10;  // group 3 lists triangle 100 (past the last)
+  refused(bad, "mask past the end");
+  bad = bytes;
+  bad[53] |= 0x80;  // a bit after the last entry
+  refused(bad, "stray bits");
+  bad = bytes;
+  bad[52] = uint8_t((bad[52] & ~0x38u) | (6u << 3));  // entry 1 = the default value
+  refused(bad, "listed default");
+  bad = bytes;
+  bad[52] = uint8_t((bad[52] & ~7u) | 2u);  // default value 2: between M and 2^k - 4
+  refused(bad, "default out of range");
+  bad = bytes;
+  bad[7] = 2;  // rank-packed without the directory
+  refused(bad, "flags");
+  // The same values with an extra listed triangle stay consistent: moving triangle 99 to group 2 is refused
+  // (group 3's count no longer matches), the count fixed accepts it.
+  bad = bytes;
+  bad[44 + 4] = 0;
+  bad[36 + 4] = 0x01;  // triangle 64 listed instead of 99
+  EXPECT_FALSE(EncodedArray::parse(bad));
+  bad[44] = 4;
+  const auto moved = EncodedArray::parse(bad);
+  ASSERT_TRUE(moved) << moved.error().message;
+  EXPECT_EQ(moved->indices()[64], 0);
+  EXPECT_EQ(moved->indices()[99], -2);
+  EXPECT_EQ(moved->indexAs<Encoding::Sdag>(64), 0);
+  EXPECT_EQ(moved->indexAs<Encoding::Sdag>(99), -2);
 }
 
 // Identical subtrees of different maps are stored once: a second map that differs from the first in one

@@ -575,11 +575,17 @@ struct SdagLayout {
   std::array<uint64_t, kSdagRegions> bytes{};
   std::array<uint8_t, kSdagRegions> width{};
   std::array<uint8_t, kSdagRegions> tier{};
+  std::array<uint8_t, kSdagRegions> mid{};
 
   bool isShort(uint32_t k, uint32_t id) const {
     return tier[k] != 0 && ref[k][id] < (uint64_t(1) << (tier[k] - 1u));
   }
-  uint32_t refBits(uint32_t k, uint32_t id) const { return isShort(k, id) ? tier[k] - 1u : width[k]; }
+  bool isMid(uint32_t k, uint32_t id) const {
+    return mid[k] != 0 && !isShort(k, id) && ref[k][id] < (uint64_t(1) << (mid[k] - 1u));
+  }
+  uint32_t refBits(uint32_t k, uint32_t id) const {
+    return isShort(k, id) ? tier[k] - 1u : isMid(k, id) ? mid[k] - 1u : width[k];
+  }
 };
 
 // Bytes of a record of `slots` children whose node children are in region `below`.
@@ -587,28 +593,44 @@ uint64_t sdagNodeBytes(const Key& k, uint32_t slots, const SdagLayout& l, uint32
   const uint32_t n = nodeChildren(k, slots);
   uint64_t bits = slots + (slots - n) + (l.tier[below] != 0 ? n : 0);  // uniform states: 1 bit each
   for (uint32_t s = 0; s < slots; ++s)
-    if (k[s] >= kNodeCode) bits += l.refBits(below, k[s] - kNodeCode);
+    if (k[s] >= kNodeCode) {
+      bits += l.refBits(below, k[s] - kNodeCode);
+      bits += l.mid[below] != 0 && !l.isShort(below, k[s] - kNodeCode);  // G
+    }
   return (bits + 7) / 8;
 }
 
-// The tier (0 or short width + 1) that minimises the bits of `uses` references into records whose references
-// `ref` increase along `order`.
-uint8_t bestTier(const std::vector<uint32_t>& order, const std::vector<uint32_t>& ref,
-                 const std::vector<uint64_t>& uses, uint32_t w) {
+// The tier and mid (0, or short / mid width + 1) that minimise the bits of `uses` references into records whose
+// references `ref` increase along `order`: plain w bits; F + short / long; F + G + short / mid / long.
+std::pair<uint8_t, uint8_t> bestTiers(const std::vector<uint32_t>& order, const std::vector<uint32_t>& ref,
+                                      const std::vector<uint64_t>& uses, uint32_t w) {
   uint64_t total = 0;
   for (uint64_t u : uses) total += u;
-  uint64_t best = total * w, shortUses = 0;
-  uint8_t tier = 0;
+  std::vector<uint64_t> below(w + 1, 0);  // below[b] = uses of the references < 2^b
   size_t i = 0;
+  uint64_t acc = 0;
+  for (uint32_t b = 0; b <= w; ++b) {
+    while (i < order.size() && ref[order[i]] < (uint64_t(1) << b)) acc += uses[order[i++]];
+    below[b] = acc;
+  }
+  uint64_t best = total * w;
+  std::pair<uint8_t, uint8_t> tiers{0, 0};
   for (uint32_t sw = 0; sw < w; ++sw) {
-    while (i < order.size() && ref[order[i]] < (uint64_t(1) << sw)) shortUses += uses[order[i++]];
-    const uint64_t cost = total + shortUses * sw + (total - shortUses) * w;
-    if (cost < best) {
-      best = cost;
-      tier = uint8_t(sw + 1);
+    const uint64_t two = total + below[sw] * sw + (total - below[sw]) * w;
+    if (two < best) {
+      best = two;
+      tiers = {uint8_t(sw + 1), 0};
+    }
+    for (uint32_t mw = sw + 1; mw < w; ++mw) {
+      const uint64_t three = total + (total - below[sw]) + below[sw] * sw + (below[mw] - below[sw]) * mw +
+                             (total - below[mw]) * w;
+      if (three < best) {
+        best = three;
+        tiers = {uint8_t(sw + 1), uint8_t(mw + 1)};
+      }
     }
   }
-  return tier;
+  return tiers;
 }
 
 SdagLayout sdagLayout(const DagTables& tables, const std::vector<DagRoot>& roots) {
@@ -644,7 +666,7 @@ SdagLayout sdagLayout(const DagTables& tables, const std::vector<DagRoot>& roots
       }
       l.bytes[k] = off;
       l.width[k] = uint8_t(recs.empty() ? 0 : bitsFor(uint64_t(l.ref[k][order.back()]) + 1));
-      l.tier[k] = bestTier(order, l.ref[k], uses[k], l.width[k]);
+      std::tie(l.tier[k], l.mid[k]) = bestTiers(order, l.ref[k], uses[k], l.width[k]);
     }
   }
   return l;
@@ -679,6 +701,10 @@ void putSdagNode(BitWriter& out, const Key& k, uint32_t slots, const SdagLayout&
   if (l.tier[below] != 0)
     for (uint32_t s = 0; s < slots; ++s)
       if (k[s] >= kNodeCode) out.put(l.isShort(below, k[s] - kNodeCode) ? 1 : 0, 1);
+  if (l.mid[below] != 0)
+    for (uint32_t s = 0; s < slots; ++s)
+      if (k[s] >= kNodeCode && !l.isShort(below, k[s] - kNodeCode))
+        out.put(l.isMid(below, k[s] - kNodeCode) ? 1 : 0, 1);
   for (uint32_t s = 0; s < slots; ++s)
     if (k[s] >= kNodeCode) out.put(l.ref[below][k[s] - kNodeCode], l.refBits(below, k[s] - kNodeCode));
   out.padToByte();
@@ -701,12 +727,15 @@ std::vector<uint8_t> emitSdag(const DagTables& tables, const std::vector<DagRoot
     dir.base[k] = uint32_t(base);
     dir.width[k] = l.width[k];
     dir.tier[k] = l.tier[k];
+    dir.mid[k] = l.mid[k];
     base += l.bytes[k];
   }
   dir.base[kSdagRegions] = uint32_t(base);
   for (uint32_t k = 0; k <= kSdagRegions; ++k) out.put(dir.base[k], 32);
   for (uint32_t k = 0; k < kSdagRegions; ++k) out.put(dir.width[k], 8);
   for (uint32_t k = 0; k < kSdagRegions; ++k) out.put(dir.tier[k], 8);
+  for (uint32_t k = 0; k < kSdagRegions; ++k) out.put(dir.mid[k], 8);
+  out.put(0, 32);
   out.put(0, 32);
   for (Format f : {Format::TwoState, Format::FourState}) {
     const uint32_t b = bitsPerState(f);
@@ -823,12 +852,12 @@ void sdagFill(const uint8_t* data, const SdagDirectory& dir, const uint8_t* p, F
     return;
   }
   const uint32_t mbits = slots, m = slots == 16 ? load16(p) : p[0] & 15u;
-  const uint32_t k = sdagRegion(f, h), n = popcount64(m), w = dir.width[k], t = dir.tier[k];
+  const uint32_t k = sdagRegion(f, h), n = popcount64(m), w = dir.width[k], t = dir.tier[k], u = dir.mid[k];
   const uint64_t span = uint64_t(1) << (4 * h);
   uint32_t ui = 0, ni = 0;
   for (uint32_t s = 0; s < slots; ++s) {
     if ((m >> s) & 1u) {
-      const uint32_t ref = sdagRef(p, mbits + (slots - n), n, ni++, w, t);
+      const uint32_t ref = sdagRef(p, mbits + (slots - n), n, ni++, w, t, u);
       const uint8_t* c = sdagChild(data, dir, f, h, ref);
       if (h == 1)
         sdagFill(data, dir, c, f, 0, 16, start + s * span, out);
@@ -877,12 +906,14 @@ struct SdagChecker {
     if (avail < (slots == 16 ? 2u : 1u)) return false;
     const uint32_t m = slots == 16 ? load16(p) : p[0] & 15u, n = popcount64(m);
     if (h == 0 && m != 0) return false;
-    const uint32_t w = h == 0 ? 0 : dir.width[sdagRegion(f, h)], t = h == 0 ? 0 : dir.tier[sdagRegion(f, h)];
+    const uint32_t k = h == 0 ? 0 : sdagRegion(f, h);
+    const uint32_t w = h == 0 ? 0 : dir.width[k], t = h == 0 ? 0 : dir.tier[k], u = h == 0 ? 0 : dir.mid[k];
     const uint32_t pos = slots + (slots - n);
-    if ((pos + (t != 0 ? n : 0) + 7) / 8 > avail) return false;  // the flags
-    if ((pos + uint64_t(sdagRefBits(p, pos, n, w, t)) + 7) / 8 > avail) return false;
+    if ((pos + (t != 0 ? n : 0) + 7) / 8 > avail) return false;  // F
+    if (u != 0 && (pos + 2 * n + 7) / 8 > avail) return false;   // G (at most n bits after F)
+    if ((pos + uint64_t(sdagRefBits(p, pos, n, w, t, u)) + 7) / 8 > avail) return false;
     for (uint32_t i = 0; i < n; ++i)
-      if (!child(f, h, sdagRef(p, pos, n, i, w, t))) return false;
+      if (!child(f, h, sdagRef(p, pos, n, i, w, t, u))) return false;
     return true;
   }
   bool node(Format f, uint32_t h, uint64_t off) {
@@ -999,8 +1030,9 @@ constexpr uint32_t kMagic = 0x434e4553;  // "SENC"
 constexpr uint8_t kVersion = 1;          // arrays without the sdag directory
 constexpr uint8_t kVersionTiers = 2;     // the old sdag layout: directory with tiers, 16/32-bit index buffer
 constexpr uint8_t kVersionTwoBitUniform = 3;  // the old sdag layout: 2-bit uniform states (4-state)
-constexpr uint8_t kVersionPlainIndex = 4;  // the old sdag layout: no rank-packed index buffer (flags bit 1)
-constexpr uint8_t kVersionDirectory = 5;   // arrays with it (directory with tiers + the packed index buffer)
+constexpr uint8_t kVersionPlainIndex =
+    4;  // the old sdag layout: 80-byte directory, no rank-packed index buffer
+constexpr uint8_t kVersionDirectory = 5;  // arrays with it (directory with tiers + the packed index buffer)
 
 }  // namespace
 
@@ -1334,8 +1366,8 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
     return makeError(
         ErrorCode::UnsupportedFormat,
         prefix +
-            "encoded array version 4 (the sdag layout without the rank-packed index buffer) is no "
-            "longer supported (encode the micromaps again)");
+            "encoded array version 4 (the sdag layout with the 80-byte directory and no rank-packed index "
+            "buffer) is no longer supported (encode the micromaps again)");
   if (p[4] != kVersion && p[4] != kVersionDirectory)
     return makeError(ErrorCode::UnsupportedFormat,
                      prefix + "encoded array version " + std::to_string(p[4]) + " is not supported");
@@ -1438,15 +1470,19 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
     for (uint32_t k = 0; k <= encode::kSdagRegions; ++k) out.dir_.base[k] = getU32(data + 4 * k);
     for (uint32_t k = 0; k < encode::kSdagRegions; ++k) out.dir_.width[k] = data[52 + k];
     for (uint32_t k = 0; k < encode::kSdagRegions; ++k) out.dir_.tier[k] = data[64 + k];
-    if (getU32(data + 76) != 0) return bad("sdag directory's reserved bytes are not zero");
+    for (uint32_t k = 0; k < encode::kSdagRegions; ++k) out.dir_.mid[k] = data[76 + k];
+    if (getU32(data + 88) != 0 || getU32(data + 92) != 0)
+      return bad("sdag directory's reserved bytes are not zero");
     if (out.dir_.base[0] != encode::kSdagDirectoryBytes || out.dir_.base[encode::kSdagRegions] > dataBytes)
       return bad("sdag directory regions exceed the data buffer");
     for (uint32_t k = 0; k < encode::kSdagRegions; ++k)
       if (out.dir_.base[k + 1] < out.dir_.base[k] || out.dir_.width[k] > 32 ||
-          out.dir_.tier[k] > out.dir_.width[k])
+          out.dir_.tier[k] > out.dir_.width[k] ||
+          (out.dir_.mid[k] != 0 && (out.dir_.tier[k] == 0 || out.dir_.mid[k] <= out.dir_.tier[k] ||
+                                    out.dir_.mid[k] > out.dir_.width[k])))
         return bad(
-            "sdag directory is inconsistent (regions out of order, reference width above 32 or tier "
-            "above the width)");
+            "sdag directory is inconsistent (regions out of order, reference width above 32, tier above the "
+            "width, or mid not between the tier and the width)");
   }
   encode::SdagChecker sdag{data, dataBytes, out.dir_};
   encode::CsmChecker csm{data, dataBytes};

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "somm/omm_array.h"
+#include "somm_test_arrays.h"
 
 namespace somm {
 namespace {
@@ -539,17 +540,17 @@ TEST(EncodeDag, WorkedExampleLayouts) {
   EXPECT_EQ(csm.maps()[0].offset, 4u);
   EXPECT_EQ(csm.maps()[0].kind, MapKind::Csm);
   const EncodedArray sdag = EncodedArray::build(a, Encoding::Sdag).value();
-  ASSERT_EQ(sdag.dataBytes(), 83u);
+  ASSERT_EQ(sdag.dataBytes(), 99u);
   EXPECT_TRUE(sdag.hasDirectory());
-  EXPECT_EQ(sdag.directory().base[0], 80u);
-  for (uint32_t k = 1; k <= encode::kSdagRegions; ++k) EXPECT_EQ(sdag.directory().base[k], 82u);
+  EXPECT_EQ(sdag.directory().base[0], 96u);
+  for (uint32_t k = 1; k <= encode::kSdagRegions; ++k) EXPECT_EQ(sdag.directory().base[k], 98u);
   for (uint32_t k = 0; k < encode::kSdagRegions; ++k) EXPECT_EQ(sdag.directory().width[k], 0u);
   for (uint32_t k = 0; k < encode::kSdagRegions; ++k) EXPECT_EQ(sdag.directory().tier[k], 0u);
-  EXPECT_EQ(sdag.data()[0], 80u);
-  EXPECT_EQ(sdag.data()[4], 82u);
-  EXPECT_EQ(sdag.data()[80], 0xff);
-  EXPECT_EQ(sdag.data()[81], 0x00);
-  EXPECT_EQ(sdag.data()[82], 0x2c);
+  EXPECT_EQ(sdag.data()[0], 96u);
+  EXPECT_EQ(sdag.data()[4], 98u);
+  EXPECT_EQ(sdag.data()[96], 0xff);
+  EXPECT_EQ(sdag.data()[97], 0x00);
+  EXPECT_EQ(sdag.data()[98], 0x2c);
   EXPECT_EQ(sdag.serialize()[4],
             5u);  // arrays with the directory (and the packed index buffer) are version 5
   EXPECT_EQ(sdag.serialize()[7], 1u);  // the directory; the index buffer is not rank-packed (5 triangles)
@@ -557,8 +558,8 @@ TEST(EncodeDag, WorkedExampleLayouts) {
   // triangles 0..4 → map 0, then -1..-4 as 7, 6, 5, 4 (3 bits each): 0x4bb8
   EXPECT_EQ(sdag.serialize()[20], 0xb8);
   EXPECT_EQ(sdag.serialize()[21], 0x4b);
-  EXPECT_EQ(sdag.byteSize(), 20u + 2u + 8u + 83u + 8u);
-  EXPECT_EQ(sdag.maps()[0].offset, 82u);
+  EXPECT_EQ(sdag.byteSize(), 20u + 2u + 8u + 99u + 8u);
+  EXPECT_EQ(sdag.maps()[0].offset, 98u);
   EXPECT_EQ(sdag.maps()[0].kind, MapKind::Sdag);
   for (uint32_t i = 0; i < 64; ++i) {
     EXPECT_EQ(csm.state(0, i), m.get(i)) << i;
@@ -577,16 +578,16 @@ TEST(EncodeDag, WorkedExampleTieredReferences) {
   const EncodedArray sdag = EncodedArray::build(arrayOf({m}), Encoding::Sdag).value();
   const std::vector<uint8_t> regions{0xff, 0x00, 0x0f, 0x0f, 0x33, 0x33, 0x55,
                                      0x55, 0xff, 0xff, 0xff, 0x1f, 0x39};
-  ASSERT_EQ(sdag.dataBytes(), 93u);
-  EXPECT_EQ(std::vector<uint8_t>(sdag.data().begin() + 80, sdag.data().begin() + 93), regions);
+  ASSERT_EQ(sdag.dataBytes(), 109u);
+  EXPECT_EQ(std::vector<uint8_t>(sdag.data().begin() + 96, sdag.data().begin() + 109), regions);
   const encode::SdagDirectory& dir = sdag.directory();
-  EXPECT_EQ(dir.base[0], 80u);
-  EXPECT_EQ(dir.base[1], 88u);
-  for (uint32_t k = 2; k <= encode::kSdagRegions; ++k) EXPECT_EQ(dir.base[k], 93u);
+  EXPECT_EQ(dir.base[0], 96u);
+  EXPECT_EQ(dir.base[1], 104u);
+  for (uint32_t k = 2; k <= encode::kSdagRegions; ++k) EXPECT_EQ(dir.base[k], 109u);
   EXPECT_EQ(dir.width[0], 2u);
   EXPECT_EQ(dir.tier[0], 1u);  // short references: 0 bits (the leaf used 13 times)
   for (uint32_t k = 1; k < encode::kSdagRegions; ++k) EXPECT_EQ(dir.width[k] + dir.tier[k], 0u);
-  EXPECT_EQ(sdag.maps()[0].offset, 88u);
+  EXPECT_EQ(sdag.maps()[0].offset, 104u);
   EXPECT_EQ(sdag.state(0, 213), State::Transparent);
   EXPECT_EQ(sdag.state(0, 100), State::Opaque);
   for (uint32_t i = 0; i < 256; ++i) EXPECT_EQ(sdag.state(0, i), m.get(i)) << i;
@@ -626,15 +627,15 @@ TEST(EncodeDag, WorkedExampleUnknownUniformChild) {
   for (uint32_t i = 32; i < 48; ++i) m.set(i, State(i % 4));
   const EncodedArray sdag = EncodedArray::build(arrayOf({m}), Encoding::Sdag).value();
   const std::vector<uint8_t> regions{0xff, 0xff, 0xff, 0xff, 0xe4, 0xe4, 0xe4, 0xe4, 0x05, 0x00, 0x01, 0x80};
-  ASSERT_EQ(sdag.dataBytes(), 92u);
-  EXPECT_EQ(std::vector<uint8_t>(sdag.data().begin() + 80, sdag.data().begin() + 92), regions);
+  ASSERT_EQ(sdag.dataBytes(), 108u);
+  EXPECT_EQ(std::vector<uint8_t>(sdag.data().begin() + 96, sdag.data().begin() + 108), regions);
   const encode::SdagDirectory& dir = sdag.directory();
-  for (uint32_t k = 0; k <= 6; ++k) EXPECT_EQ(dir.base[k], 80u);
-  EXPECT_EQ(dir.base[7], 88u);
-  for (uint32_t k = 8; k <= encode::kSdagRegions; ++k) EXPECT_EQ(dir.base[k], 92u);
+  for (uint32_t k = 0; k <= 6; ++k) EXPECT_EQ(dir.base[k], 96u);
+  EXPECT_EQ(dir.base[7], 104u);
+  for (uint32_t k = 8; k <= encode::kSdagRegions; ++k) EXPECT_EQ(dir.base[k], 108u);
   EXPECT_EQ(dir.width[6], 1u);
   EXPECT_EQ(dir.tier[6], 0u);
-  EXPECT_EQ(sdag.maps()[0].offset, 88u);
+  EXPECT_EQ(sdag.maps()[0].offset, 104u);
   EXPECT_EQ(sdag.state(0, 5), State::UnknownOpaque);
   EXPECT_EQ(sdag.state(0, 20), State::Opaque);
   EXPECT_EQ(sdag.state(0, 39), State::UnknownOpaque);
@@ -754,6 +755,37 @@ TEST(EncodeDag, RankPackedIndexBuffer) {
   EXPECT_EQ(moved->indices()[99], -2);
   EXPECT_EQ(moved->indexAs<Encoding::Sdag>(64), 0);
   EXPECT_EQ(moved->indexAs<Encoding::Sdag>(99), -2);
+}
+
+// The three-class reference code (docs/encodings.md, sdag: tier and mid): random level-6..8 maps give a leaf region
+// whose references are short, mid or long. Lookups equal flat, decode is bit-exact, parse round-trips, and a
+// directory whose mid is not between the tier and the width is refused.
+TEST(EncodeDag, MidReferenceClass) {
+  const OmmArray flat = somm::testing::randomOmmArray(200, Format::FourState, 6, 8, 1);
+  const EncodedArray e = EncodedArray::build(flat, Encoding::Sdag).value();
+  const uint32_t k = encode::sdagRegion(Format::FourState, 1);
+  const encode::SdagDirectory& dir = e.directory();
+  ASSERT_NE(dir.mid[k], 0u);
+  EXPECT_GT(dir.mid[k], dir.tier[k]);
+  EXPECT_GT(dir.tier[k], 0u);
+  EXPECT_LE(dir.mid[k], dir.width[k]);
+  for (uint32_t t = 0; t < flat.indices.size(); ++t) {
+    const int32_t i = flat.indices[t];
+    const uint32_t n = i < 0 ? 1 : microTriangleCount(flat.descriptors[size_t(i)].subdivisionLevel);
+    for (uint32_t x = 0; x < n; x += 7) ASSERT_EQ(e.state(t, x), flat.state(t, x)) << t << " " << x;
+  }
+  EXPECT_TRUE(sameArray(e.decode(), flat));
+  const std::vector<uint8_t> bytes = e.serialize();
+  EXPECT_EQ(EncodedArray::parse(bytes).value(), e);
+  const size_t data = 20 + e.indexBufferBytes() + 8 * e.mapCount();
+  std::vector<uint8_t> bad = bytes;
+  bad[data + 76 + k] = dir.tier[k];  // mid = tier
+  EXPECT_FALSE(EncodedArray::parse(bad));
+  bad[data + 76 + k] = uint8_t(dir.width[k] + 1);  // mid above the width
+  EXPECT_FALSE(EncodedArray::parse(bad));
+  bad = bytes;
+  bad[data + 88] = 1;  // reserved
+  EXPECT_FALSE(EncodedArray::parse(bad));
 }
 
 // Identical subtrees of different maps are stored once: a second map that differs from the first in one

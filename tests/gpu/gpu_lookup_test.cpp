@@ -123,6 +123,16 @@ TEST(GpuLookup, RankPackedIndexBuffer) {
   expectStatesMatch(*device, a, "rank-packed indices", 64);
 }
 
+// sdag's three-class references (short / mid / long, flags F and G): a leaf region with a mid class.
+TEST(GpuLookup, SdagMidReferenceClass) {
+  SOMM_OPEN_DEVICE_OR_SKIP(device);
+  const somm::OmmArray a = somm::testing::randomOmmArray(200, somm::Format::FourState, 6, 8, 1);
+  const auto enc = somm::EncodedArray::build(a, somm::Encoding::Sdag);
+  ASSERT_TRUE(enc) << enc.error().message;
+  ASSERT_NE(enc->directory().mid[somm::encode::sdagRegion(somm::Format::FourState, 1)], 0u);
+  expectStatesMatch(*device, a, "sdag mid references", 400);
+}
+
 // A dfs skip close to lavapipe's loop budget (65 535 loop iterations per invocation, shared by all loops;
 // docs/shaders.md): a level-11 map whose first two quadrants are random (2 × 349 525 internal nodes, ~2.8 M tree
 // bits) and whose last two are uniform. A lookup in quadrant 3 skips both random subtrees: ~58 000 iterations of

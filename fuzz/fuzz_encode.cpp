@@ -14,16 +14,15 @@
 // In every mode an accepted array must pass verifyAgainstFlat against its own decoded spec buffers (the check a
 // .somm load makes), and fail it (CorruptFile naming the difference) once one micro-triangle of the flat side is
 // changed; LimitExceeded (its work bound) is the only other outcome allowed.
-#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <map>
 #include <span>
 #include <vector>
 
+#include "packed_index_oracle.h"
 #include "somm/encode.h"
 #include "somm/omm_array.h"
 
@@ -47,18 +46,6 @@ uint32_t lookupsFor(uint32_t level) {
 uint32_t lookupIndex(uint32_t k, uint32_t level) {
   const uint32_t n = somm::microTriangleCount(level);
   return level <= 5 ? k : k == 0 ? n - 1 : uint32_t((uint64_t(k) * 2654435761u) % n);
-}
-
-// docs/encodings.md: the packed index buffer is k bits per triangle, or rank-packed (8 bytes per 32 triangles, then
-// listed + 1 entries of k bits; listed = triangles whose value is not the most common one) when strictly smaller.
-uint64_t expectedPackedIndexBytes(const std::vector<int32_t>& indices, uint64_t maps) {
-  const uint32_t k = somm::encode::sdagIndexBits(maps);
-  std::map<int32_t, uint64_t> count;
-  uint64_t most = 0;
-  for (int32_t i : indices) most = std::max(most, ++count[i]);
-  const uint64_t plain = (indices.size() * k + 7) / 8;
-  const uint64_t rank = 8 * ((indices.size() + 31) / 32) + ((indices.size() - most + 1) * k + 7) / 8;
-  return !indices.empty() && rank < plain ? rank : plain;
 }
 
 template <Encoding E>
@@ -235,10 +222,10 @@ void modeBuild(const uint8_t* data, size_t size) {
     if (back.data != flat.data || back.descriptors != flat.descriptors || back.indices != flat.indices ||
         back.histogram != flat.histogram || back.triangleHistogram != flat.triangleHistogram)
       fail("decode() is not bit-exact", somm::encodingName(e));
-    if (enc->hasDirectory() &&
-        (enc->indexBufferBytes() != expectedPackedIndexBytes(flat.indices, flat.descriptors.size()) ||
-         enc->indexRankPacked() !=
-             (enc->indexBufferBytes() < (flat.indices.size() * enc->indexBits() + 7) / 8)))
+    if (enc->hasDirectory() && (enc->indexBufferBytes() != somm::testing::packedIndexBufferBytes(
+                                                               flat.indices, flat.descriptors.size()) ||
+                                enc->indexRankPacked() != (enc->indexBufferBytes() <
+                                                           (flat.indices.size() * enc->indexBits() + 7) / 8)))
       fail("the packed index buffer is not the smaller of plain and rank-packed", somm::encodingName(e));
     checkArray(*enc);
   }

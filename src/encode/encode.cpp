@@ -909,8 +909,8 @@ struct SdagChecker {
     const uint32_t k = h == 0 ? 0 : sdagRegion(f, h);
     const uint32_t w = h == 0 ? 0 : dir.width[k], t = h == 0 ? 0 : dir.tier[k], u = h == 0 ? 0 : dir.mid[k];
     const uint32_t pos = slots + (slots - n);
-    if ((pos + (t != 0 ? n : 0) + 7) / 8 > avail) return false;  // F
-    if (u != 0 && (pos + 2 * n + 7) / 8 > avail) return false;   // G (at most n bits after F)
+    if ((pos + (t != 0 ? n : 0) + 7) / 8 > avail) return false;                                    // F
+    if (u != 0 && (pos + n + (n - popcount64(getBits(p, pos, n))) + 7) / 8 > avail) return false;  // G
     if ((pos + uint64_t(sdagRefBits(p, pos, n, w, t, u)) + 7) / 8 > avail) return false;
     for (uint32_t i = 0; i < n; ++i)
       if (!child(f, h, sdagRef(p, pos, n, i, w, t, u))) return false;

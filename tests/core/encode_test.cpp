@@ -13,6 +13,7 @@
 #include <tuple>
 #include <vector>
 
+#include "packed_index_oracle.h"
 #include "somm/omm_array.h"
 #include "somm_test_arrays.h"
 
@@ -117,18 +118,7 @@ OmmArray arrayOf(const std::vector<Micromap>& maps) {
   return a;
 }
 
-// Bytes of the packed index buffer of an array with the sdag directory, from docs/encodings.md: k bits per
-// triangle, or the rank-packed buffer (8 bytes per 32 triangles + (listed + 1) entries of k bits, listed = the
-// triangles whose value is not the most common one) when that is strictly smaller.
-uint64_t packedIndexBufferBytes(const std::vector<int32_t>& indices, uint64_t maps) {
-  const uint32_t k = encode::sdagIndexBits(maps);
-  std::map<int32_t, uint64_t> count;
-  uint64_t most = 0;
-  for (int32_t i : indices) most = std::max(most, ++count[i]);
-  const uint64_t plain = (indices.size() * k + 7) / 8;
-  const uint64_t rank = 8 * ((indices.size() + 31) / 32) + ((indices.size() - most + 1) * k + 7) / 8;
-  return !indices.empty() && rank < plain ? rank : plain;
-}
+using somm::testing::packedIndexBufferBytes;
 
 // Internal nodes of the collapsed tree, counted by brute force from the flat map (independent of the
 // encoder).

@@ -8,8 +8,9 @@
 //      validated size + kTailPadding so that any read past it is caught; every index looked up, equal to
 //      decodeMap.
 //   2: build: micromaps made from the bytes → OmmArray → every encoding (csm and sdag included: the maps share
-//      subtrees, some are repeated with a few states changed); lookups equal flat, decode() is bit-exact,
-//      serialise → parse round-trips.
+//      subtrees, some are repeated with a few states changed; then up to 2040 triangles of mostly one special
+//      index, as on real foliage, so that sdag's index buffer is rank-packed); lookups equal flat, decode() is
+//      bit-exact, serialise → parse round-trips; the packed index buffer is the smaller of plain and rank-packed.
 // In every mode an accepted array must pass verifyAgainstFlat against its own decoded spec buffers (the check a
 // .somm load makes), and fail it (CorruptFile naming the difference) once one micro-triangle of the flat side is
 // changed; LimitExceeded (its work bound) is the only other outcome allowed.
@@ -21,6 +22,7 @@
 #include <span>
 #include <vector>
 
+#include "packed_index_oracle.h"
 #include "somm/encode.h"
 #include "somm/omm_array.h"
 
@@ -176,6 +178,7 @@ void modeBuild(const uint8_t* data, size_t size) {
   somm::OmmArrayBuilder b;
   size_t p = 0;
   auto byte = [&]() -> uint8_t { return p < size ? data[p++] : 0; };
+  std::vector<somm::Micromap> added;
   for (int t = 0; t < 6 && p < size; ++t) {
     const uint8_t head = byte();
     const uint32_t level = head % 7;
@@ -191,12 +194,25 @@ void modeBuild(const uint8_t* data, size_t size) {
       at += byte() % 8;
     }
     b.add(m);
+    added.push_back(m);
     // A near-copy (one run of states changed): identical subtrees for the array-wide DAGs to share.
     if (head & 0x40 && m.size() > 1) {
       const uint32_t from = uint32_t(byte()) * m.size() / 256u;
       for (uint32_t i = from; i < m.size() && i < from + 1u + byte() % 16u; ++i) m.set(i, State(byte() & 3));
       b.add(m);
+      added.push_back(m);
     }
+  }
+  // Then (count byte c, state byte s) triangles like real foliage: 8·c triangles, mostly of the uniform state s
+  // (special indices), every (s >> 2 | 1)-th one a map added above: long arrays whose index buffer is rank-packed.
+  const uint32_t more = 8u * byte();
+  const uint8_t s = byte();
+  const uint32_t every = (s >> 2) | 1u;
+  for (uint32_t i = 0; i < more; ++i) {
+    if (i % every == every - 1 && !added.empty())
+      b.add(added[i % added.size()]);
+    else
+      b.add(somm::Micromap(0, somm::Format::FourState, State(s & 3)));
   }
   const somm::OmmArray flat = b.finish();
   for (Encoding e : somm::kAllEncodings) {
@@ -206,6 +222,11 @@ void modeBuild(const uint8_t* data, size_t size) {
     if (back.data != flat.data || back.descriptors != flat.descriptors || back.indices != flat.indices ||
         back.histogram != flat.histogram || back.triangleHistogram != flat.triangleHistogram)
       fail("decode() is not bit-exact", somm::encodingName(e));
+    if (enc->hasDirectory() && (enc->indexBufferBytes() != somm::testing::packedIndexBufferBytes(
+                                                               flat.indices, flat.descriptors.size()) ||
+                                enc->indexRankPacked() != (enc->indexBufferBytes() <
+                                                           (flat.indices.size() * enc->indexBits() + 7) / 8)))
+      fail("the packed index buffer is not the smaller of plain and rank-packed", somm::encodingName(e));
     checkArray(*enc);
   }
 }

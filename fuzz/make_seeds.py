@@ -187,6 +187,10 @@ for k in range(3):
         seed += bytes([dag_rng.randrange(256), dag_rng.randrange(256)] + [dag_rng.randrange(256) for _ in range(16)])
     put("fuzz_encode", f"build_dag_{k}", bytes([2]) + seed)
 
+# Six level-3 4-state maps (head 0x81, runs (10, opaque), (5, unknown-opaque)), then 480 triangles (count byte 60),
+# every 7th a map, the others opaque (state byte 0x1d): a long array whose sdag index buffer is rank-packed.
+put("fuzz_encode", "build_rank_index", bytes([2]) + bytes([0x81, 2, 10, 1, 0, 5, 3, 0]) * 6 + bytes([60, 0x1D]))
+
 # fuzz_somm_file: version-2 .somm files (docs/somm-format.md) written here, checksums from the system libxxhash. The
 # version-1 seeds (v1_*) were written by the version-1 library and are kept as they are.
 import ctypes

@@ -357,17 +357,19 @@ inline State csmState(const uint8_t* data, uint32_t offset, uint32_t level, Form
   return getValue(p, 0, f, index & 15u);
 }
 
-// sdag: the data buffer starts with an 80-byte directory: u32 base[13] (byte offset of region k = (format-1)·6 +
+// sdag: the data buffer starts with a 96-byte directory: u32 base[13] (byte offset of region k = (format-1)·6 +
 // height-1, base[12] = end of the regions), u8 width[12] (bits of a reference into region k), u8 tier[12] (0: every
-// reference into region k is width[k] bits; t > 0: each is short, t-1 bits, or long, width[k] bits) and 4 zero
-// bytes. A node of height h in region (f, h): u16 mask M (1 = child is a node), the states of the uniform children
-// (M bit 0) in slot order, 1 bit each (transparent / opaque; a uniformly unknown child is a node child), then the references of the node children in slot order — when region
-// (f, h-1) is tiered first one flag bit per node child (1 = short), then the references, short ones t-1 bits —: a
-// leaf number in region (f, 1) (leaves are 2b bytes) or a byte offset into region (f, h-1); byte-aligned records.
-// Records are sorted by use, so the most used ones have the small (short) references. The mask and the flags are
-// the node's rank directory: the child's state or reference sits at popcount(M below the slot), and a reference's
-// bit position at popcount(flags below it) — counts and the bits they count are in the same record.
-inline constexpr uint32_t kSdagDirectoryBytes = 80;
+// reference into region k is width[k] bits; t > 0: each is short, t-1 bits, or not), u8 mid[12] (0: a reference
+// that is not short is long, width[k] bits; u > t: it is mid, u-1 bits, or long) and 8 zero bytes. A node of
+// height h in region (f, h): u16 mask M (1 = child is a node), the states of the uniform children (M bit 0) in slot
+// order, 1 bit each (transparent / opaque; a uniformly unknown child is a node child), then the references of the
+// node children in slot order — when region (f, h-1) is tiered first one flag bit per node child (F, 1 = short),
+// with a mid class then one bit per node child that is not short (G, 1 = mid), then the references —: a leaf number
+// in region (f, 1) (leaves are 2b bytes) or a byte offset into region (f, h-1); byte-aligned records. Records are
+// sorted by use, so the most used ones have the small (short, mid) references. The mask and the flags are the
+// node's rank directory: the child's state or reference sits at popcount(M below the slot), and a reference's bit
+// position at popcounts of F and G below it — counts and the bits they count are in the same record.
+inline constexpr uint32_t kSdagDirectoryBytes = 96;
 inline constexpr uint32_t kSdagRegions = 12;
 constexpr uint32_t sdagRegion(Format f, uint32_t height) noexcept {
   return (uint32_t(f) - 1u) * 6u + height - 1u;
@@ -376,23 +378,31 @@ struct SdagDirectory {
   uint32_t base[kSdagRegions + 1] = {};
   uint8_t width[kSdagRegions] = {};
   uint8_t tier[kSdagRegions] = {};
+  uint8_t mid[kSdagRegions] = {};
   friend bool operator==(const SdagDirectory& a, const SdagDirectory& b) noexcept {
     return std::memcmp(&a, &b, sizeof(SdagDirectory)) == 0;
   }
 };
-// Reference number i of the n node children of a record whose references start at bit `pos` (w, tier: of the
-// region referred to).
+// Reference number i of the n node children of a record whose references (with their flags) start at bit `pos`
+// (w, tier, mid: of the region referred to).
 SOMM_ENCODE_INLINE uint32_t sdagRef(const uint8_t* p, uint32_t pos, uint32_t n, uint32_t i, uint32_t w,
-                                    uint32_t tier) noexcept {
+                                    uint32_t tier, uint32_t mid) noexcept {
   if (tier == 0) return getBits(p, pos + w * i, w);
-  const uint32_t sw = tier - 1u, fl = getBits(p, pos, n), s = popcount16(fl & ((1u << i) - 1u));
-  return getBits(p, pos + n + sw * s + w * (i - s), ((fl >> i) & 1u) ? sw : w);
+  const uint32_t sw = tier - 1u, fl = getBits(p, pos, n), s = popcount16(fl & ((1u << i) - 1u)), q = i - s;
+  if (mid == 0) return getBits(p, pos + n + sw * s + w * q, ((fl >> i) & 1u) ? sw : w);
+  const uint32_t longOrMid = n - popcount16(fl), g = getBits(p, pos + n, longOrMid),
+                 gb = popcount16(g & ((1u << q) - 1u)), mw = mid - 1u;
+  const uint32_t at = pos + n + longOrMid + sw * s + mw * gb + w * (q - gb);
+  return getBits(p, at, ((fl >> i) & 1u) ? sw : ((g >> q) & 1u) ? mw : w);
 }
 // Bits of the references (with their flags) of such a record.
-inline uint32_t sdagRefBits(const uint8_t* p, uint32_t pos, uint32_t n, uint32_t w, uint32_t tier) noexcept {
+inline uint32_t sdagRefBits(const uint8_t* p, uint32_t pos, uint32_t n, uint32_t w, uint32_t tier,
+                            uint32_t mid) noexcept {
   if (tier == 0) return w * n;
   const uint32_t s = popcount64(getBits(p, pos, n));
-  return n + (tier - 1u) * s + w * (n - s);
+  if (mid == 0) return n + (tier - 1u) * s + w * (n - s);
+  const uint32_t g = popcount64(getBits(p, pos + n, n - s));
+  return n + (n - s) + (tier - 1u) * s + (mid - 1u) * g + w * (n - s - g);
 }
 inline const uint8_t* sdagChild(const uint8_t* data, const SdagDirectory& dir, Format f, uint32_t height,
                                 uint32_t ref) noexcept {
@@ -409,7 +419,7 @@ SOMM_ENCODE_INLINE State sdagNodeStep(const uint8_t* data, const SdagDirectory& 
                  below = popcount16(m & ((1u << slot) - 1u));
   if (!((m >> slot) & 1u)) return State(getBit(p, 16u + slot - below));
   const uint32_t n = popcount16(m);
-  const uint32_t ref = sdagRef(p, 32u - n, n, below, dir.width[k], dir.tier[k]);
+  const uint32_t ref = sdagRef(p, 32u - n, n, below, dir.width[k], dir.tier[k], dir.mid[k]);
   if constexpr (H == 2) {
     return getValue(data + dir.base[k] + ref * 2u * b, 0, F, index & 15u);
   } else {
@@ -445,7 +455,7 @@ inline State sdagStateAs(const uint8_t* data, const SdagDirectory& dir, uint32_t
                    below = popcount16(m & ((1u << slot) - 1u));
     if (!((m >> slot) & 1u)) return State(getBit(p, 4u + slot - below));
     const uint32_t k = sdagRegion(F, h), n = popcount16(m);
-    p = sdagChild(data, dir, F, h, sdagRef(p, 8u - n, n, below, dir.width[k], dir.tier[k]));
+    p = sdagChild(data, dir, F, h, sdagRef(p, 8u - n, n, below, dir.width[k], dir.tier[k], dir.mid[k]));
   }
   return sdagNodeWalk<F>(data, dir, p, h, index);
 }
@@ -460,7 +470,7 @@ inline uint32_t sdagDescend(const uint8_t* data, const SdagDirectory& dir, const
                  below = popcount16(m & ((1u << slot) - 1u));
   if (!((m >> slot) & 1u)) return getBit(p, 16u + slot - below);
   const uint32_t n = popcount16(m);
-  const uint32_t child = dir.base[k] + sdagRef(p, 32u - n, n, below, dir.width[k], dir.tier[k]);
+  const uint32_t child = dir.base[k] + sdagRef(p, 32u - n, n, below, dir.width[k], dir.tier[k], dir.mid[k]);
   if constexpr (H == 3) {
     return child;
   } else {
@@ -477,7 +487,7 @@ inline uint32_t sdagDescendToHeight2(const uint8_t* data, const SdagDirectory& d
                    below = popcount16(m & ((1u << slot) - 1u));
     if (!((m >> slot) & 1u)) return getBit(p, 4u + slot - below);
     const uint32_t k = sdagRegion(F, h), n = popcount16(m);
-    const uint32_t child = dir.base[k] + sdagRef(p, 8u - n, n, below, dir.width[k], dir.tier[k]);
+    const uint32_t child = dir.base[k] + sdagRef(p, 8u - n, n, below, dir.width[k], dir.tier[k], dir.mid[k]);
     if (h == 2) return child;
     p = data + child;
   }
@@ -547,10 +557,31 @@ constexpr uint32_t sdagIndexBits(uint64_t maps) noexcept {
 constexpr uint64_t packedIndexBytes(uint64_t triangles, uint32_t bits) noexcept {
   return (triangles * bits + 7) / 8;
 }
-inline int32_t packedIndex(const uint8_t* p, uint32_t bits, uint32_t t) noexcept {
-  const uint64_t pos = uint64_t(t) * bits, top = uint64_t(1) << bits;
+SOMM_ENCODE_INLINE int32_t packedIndex(const uint8_t* p, uint32_t bits, uint64_t t) noexcept {
+  const uint64_t pos = t * bits, top = uint64_t(1) << bits;
   const uint64_t v = (load64(p + (pos >> 3)) >> (pos & 7u)) & (top - 1u);
   return v >= top - 4u ? int32_t(int64_t(v) - int64_t(top)) : int32_t(v);
+}
+// The rank-packed index buffer (flags bit 1; chosen when smaller than the plain one): the triangles whose value
+// differs from the array's most common one (the "default") are listed, the others only flagged. Per group of 32
+// triangles one 64-bit word: bits 0..31 = the number of listed triangles in the groups before, bits 32..63 = the
+// group's mask (bit j: triangle 32g + j is listed). Then the value list, k bits per entry as in the plain buffer:
+// entry 0 = the default value, entry 1 + r = the value of the r-th listed triangle (triangle order).
+// Random access: the group word, then one entry (a listed triangle's or entry 0).
+inline constexpr uint32_t kRankIndexGroup = 32;
+constexpr uint64_t rankIndexGroups(uint64_t triangles) noexcept {
+  return (triangles + kRankIndexGroup - 1) / kRankIndexGroup;
+}
+constexpr uint64_t rankIndexBytes(uint64_t triangles, uint64_t listed, uint32_t bits) noexcept {
+  return 8 * rankIndexGroups(triangles) + packedIndexBytes(listed + 1, bits);
+}
+SOMM_ENCODE_INLINE int32_t rankPackedIndex(const uint8_t* p, uint32_t bits, uint64_t groups,
+                                           uint32_t t) noexcept {
+  const uint64_t w = load64(p + 8 * uint64_t(t >> 5));
+  const uint32_t j = t & 31u, m = uint32_t(w >> 32);
+  const uint64_t below = popcount64(uint64_t(m) & ((uint64_t(1) << j) - 1u));
+  const uint64_t entry = ((m >> j) & 1u) ? 1 + uint32_t(w) + below : 0;
+  return packedIndex(p + 8 * groups, bits, entry);
 }
 
 // Encode / decode one map. Encoding a map is deterministic and canonical (maximal collapse).
@@ -593,8 +624,11 @@ class EncodedArray {
   // Bits per triangle of the serialized index buffer: 0 = the spec's 16/32-bit buffer (indexType()); k > 0 = the
   // packed buffer of arrays with the sdag directory (encode::sdagIndexBits), which the sdag lookup reads.
   uint32_t indexBits() const noexcept { return indexBits_; }
+  // The packed buffer is rank-packed (encode::rankPackedIndex: only the triangles whose value is not the most
+  // common one are listed), chosen per array when that is smaller than k bits per triangle.
+  bool indexRankPacked() const noexcept { return indexGroups_ != 0; }
   uint64_t indexBufferBytes() const noexcept {
-    return indexBits_ ? encode::packedIndexBytes(indices_.size(), indexBits_)
+    return indexBits_ ? packed_.size() - encode::kTailPadding
                       : uint64_t(indices_.size()) * uint64_t(indexType_);
   }
   // The sdag directory (zero unless hasDirectory(): always for sdag, for hybrid when a map is of kind Sdag).
@@ -682,7 +716,11 @@ class EncodedArray {
   // buffer, the others the spec one.
   template <Encoding E>
   int32_t indexAs(uint32_t triangle) const noexcept {
-    if constexpr (E == Encoding::Sdag) return encode::packedIndex(packed_.data(), indexBits_, triangle);
+    if constexpr (E == Encoding::Sdag) {
+      if (indexGroups_ != 0)
+        return encode::rankPackedIndex(packed_.data(), indexBits_, indexGroups_, triangle);
+      return encode::packedIndex(packed_.data(), indexBits_, triangle);
+    }
     return indices_[triangle];
   }
 
@@ -737,7 +775,7 @@ class EncodedArray {
     return a.encoding_ == b.encoding_ && a.indexType_ == b.indexType_ && a.indices_ == b.indices_ &&
            a.maps_ == b.maps_ && a.data_ == b.data_ && a.dataBytes_ == b.dataBytes_ &&
            a.hasDirectory_ == b.hasDirectory_ && a.dir_ == b.dir_ && a.indexBits_ == b.indexBits_ &&
-           a.packed_ == b.packed_;
+           a.packed_ == b.packed_ && a.indexGroups_ == b.indexGroups_;
   }
   friend bool operator!=(const EncodedArray& a, const EncodedArray& b) noexcept { return !(a == b); }
 
@@ -753,6 +791,7 @@ class EncodedArray {
   uint64_t identity_ = 0;        // unique per content (build / parse), the key of encode::sdagMemo
   uint32_t indexBits_ = 0;       // > 0 iff hasDirectory_
   std::vector<uint8_t> packed_;  // the packed index buffer (indexBits_ > 0) + kTailPadding zero bytes
+  uint64_t indexGroups_ = 0;     // > 0 iff the packed buffer is rank-packed: its number of 32-triangle groups
   void packIndices();
 };
 

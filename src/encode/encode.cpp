@@ -575,11 +575,17 @@ struct SdagLayout {
   std::array<uint64_t, kSdagRegions> bytes{};
   std::array<uint8_t, kSdagRegions> width{};
   std::array<uint8_t, kSdagRegions> tier{};
+  std::array<uint8_t, kSdagRegions> mid{};
 
   bool isShort(uint32_t k, uint32_t id) const {
     return tier[k] != 0 && ref[k][id] < (uint64_t(1) << (tier[k] - 1u));
   }
-  uint32_t refBits(uint32_t k, uint32_t id) const { return isShort(k, id) ? tier[k] - 1u : width[k]; }
+  bool isMid(uint32_t k, uint32_t id) const {
+    return mid[k] != 0 && !isShort(k, id) && ref[k][id] < (uint64_t(1) << (mid[k] - 1u));
+  }
+  uint32_t refBits(uint32_t k, uint32_t id) const {
+    return isShort(k, id) ? tier[k] - 1u : isMid(k, id) ? mid[k] - 1u : width[k];
+  }
 };
 
 // Bytes of a record of `slots` children whose node children are in region `below`.
@@ -587,28 +593,44 @@ uint64_t sdagNodeBytes(const Key& k, uint32_t slots, const SdagLayout& l, uint32
   const uint32_t n = nodeChildren(k, slots);
   uint64_t bits = slots + (slots - n) + (l.tier[below] != 0 ? n : 0);  // uniform states: 1 bit each
   for (uint32_t s = 0; s < slots; ++s)
-    if (k[s] >= kNodeCode) bits += l.refBits(below, k[s] - kNodeCode);
+    if (k[s] >= kNodeCode) {
+      bits += l.refBits(below, k[s] - kNodeCode);
+      bits += l.mid[below] != 0 && !l.isShort(below, k[s] - kNodeCode);  // G
+    }
   return (bits + 7) / 8;
 }
 
-// The tier (0 or short width + 1) that minimises the bits of `uses` references into records whose references
-// `ref` increase along `order`.
-uint8_t bestTier(const std::vector<uint32_t>& order, const std::vector<uint32_t>& ref,
-                 const std::vector<uint64_t>& uses, uint32_t w) {
+// The tier and mid (0, or short / mid width + 1) that minimise the bits of `uses` references into records whose
+// references `ref` increase along `order`: plain w bits; F + short / long; F + G + short / mid / long.
+std::pair<uint8_t, uint8_t> bestTiers(const std::vector<uint32_t>& order, const std::vector<uint32_t>& ref,
+                                      const std::vector<uint64_t>& uses, uint32_t w) {
   uint64_t total = 0;
   for (uint64_t u : uses) total += u;
-  uint64_t best = total * w, shortUses = 0;
-  uint8_t tier = 0;
+  std::vector<uint64_t> below(w + 1, 0);  // below[b] = uses of the references < 2^b
   size_t i = 0;
+  uint64_t acc = 0;
+  for (uint32_t b = 0; b <= w; ++b) {
+    while (i < order.size() && ref[order[i]] < (uint64_t(1) << b)) acc += uses[order[i++]];
+    below[b] = acc;
+  }
+  uint64_t best = total * w;
+  std::pair<uint8_t, uint8_t> tiers{0, 0};
   for (uint32_t sw = 0; sw < w; ++sw) {
-    while (i < order.size() && ref[order[i]] < (uint64_t(1) << sw)) shortUses += uses[order[i++]];
-    const uint64_t cost = total + shortUses * sw + (total - shortUses) * w;
-    if (cost < best) {
-      best = cost;
-      tier = uint8_t(sw + 1);
+    const uint64_t two = total + below[sw] * sw + (total - below[sw]) * w;
+    if (two < best) {
+      best = two;
+      tiers = {uint8_t(sw + 1), 0};
+    }
+    for (uint32_t mw = sw + 1; mw < w; ++mw) {
+      const uint64_t three = total + (total - below[sw]) + below[sw] * sw + (below[mw] - below[sw]) * mw +
+                             (total - below[mw]) * w;
+      if (three < best) {
+        best = three;
+        tiers = {uint8_t(sw + 1), uint8_t(mw + 1)};
+      }
     }
   }
-  return tier;
+  return tiers;
 }
 
 SdagLayout sdagLayout(const DagTables& tables, const std::vector<DagRoot>& roots) {
@@ -644,7 +666,7 @@ SdagLayout sdagLayout(const DagTables& tables, const std::vector<DagRoot>& roots
       }
       l.bytes[k] = off;
       l.width[k] = uint8_t(recs.empty() ? 0 : bitsFor(uint64_t(l.ref[k][order.back()]) + 1));
-      l.tier[k] = bestTier(order, l.ref[k], uses[k], l.width[k]);
+      std::tie(l.tier[k], l.mid[k]) = bestTiers(order, l.ref[k], uses[k], l.width[k]);
     }
   }
   return l;
@@ -679,6 +701,10 @@ void putSdagNode(BitWriter& out, const Key& k, uint32_t slots, const SdagLayout&
   if (l.tier[below] != 0)
     for (uint32_t s = 0; s < slots; ++s)
       if (k[s] >= kNodeCode) out.put(l.isShort(below, k[s] - kNodeCode) ? 1 : 0, 1);
+  if (l.mid[below] != 0)
+    for (uint32_t s = 0; s < slots; ++s)
+      if (k[s] >= kNodeCode && !l.isShort(below, k[s] - kNodeCode))
+        out.put(l.isMid(below, k[s] - kNodeCode) ? 1 : 0, 1);
   for (uint32_t s = 0; s < slots; ++s)
     if (k[s] >= kNodeCode) out.put(l.ref[below][k[s] - kNodeCode], l.refBits(below, k[s] - kNodeCode));
   out.padToByte();
@@ -701,12 +727,15 @@ std::vector<uint8_t> emitSdag(const DagTables& tables, const std::vector<DagRoot
     dir.base[k] = uint32_t(base);
     dir.width[k] = l.width[k];
     dir.tier[k] = l.tier[k];
+    dir.mid[k] = l.mid[k];
     base += l.bytes[k];
   }
   dir.base[kSdagRegions] = uint32_t(base);
   for (uint32_t k = 0; k <= kSdagRegions; ++k) out.put(dir.base[k], 32);
   for (uint32_t k = 0; k < kSdagRegions; ++k) out.put(dir.width[k], 8);
   for (uint32_t k = 0; k < kSdagRegions; ++k) out.put(dir.tier[k], 8);
+  for (uint32_t k = 0; k < kSdagRegions; ++k) out.put(dir.mid[k], 8);
+  out.put(0, 32);
   out.put(0, 32);
   for (Format f : {Format::TwoState, Format::FourState}) {
     const uint32_t b = bitsPerState(f);
@@ -823,12 +852,12 @@ void sdagFill(const uint8_t* data, const SdagDirectory& dir, const uint8_t* p, F
     return;
   }
   const uint32_t mbits = slots, m = slots == 16 ? load16(p) : p[0] & 15u;
-  const uint32_t k = sdagRegion(f, h), n = popcount64(m), w = dir.width[k], t = dir.tier[k];
+  const uint32_t k = sdagRegion(f, h), n = popcount64(m), w = dir.width[k], t = dir.tier[k], u = dir.mid[k];
   const uint64_t span = uint64_t(1) << (4 * h);
   uint32_t ui = 0, ni = 0;
   for (uint32_t s = 0; s < slots; ++s) {
     if ((m >> s) & 1u) {
-      const uint32_t ref = sdagRef(p, mbits + (slots - n), n, ni++, w, t);
+      const uint32_t ref = sdagRef(p, mbits + (slots - n), n, ni++, w, t, u);
       const uint8_t* c = sdagChild(data, dir, f, h, ref);
       if (h == 1)
         sdagFill(data, dir, c, f, 0, 16, start + s * span, out);
@@ -877,12 +906,14 @@ struct SdagChecker {
     if (avail < (slots == 16 ? 2u : 1u)) return false;
     const uint32_t m = slots == 16 ? load16(p) : p[0] & 15u, n = popcount64(m);
     if (h == 0 && m != 0) return false;
-    const uint32_t w = h == 0 ? 0 : dir.width[sdagRegion(f, h)], t = h == 0 ? 0 : dir.tier[sdagRegion(f, h)];
+    const uint32_t k = h == 0 ? 0 : sdagRegion(f, h);
+    const uint32_t w = h == 0 ? 0 : dir.width[k], t = h == 0 ? 0 : dir.tier[k], u = h == 0 ? 0 : dir.mid[k];
     const uint32_t pos = slots + (slots - n);
-    if ((pos + (t != 0 ? n : 0) + 7) / 8 > avail) return false;  // the flags
-    if ((pos + uint64_t(sdagRefBits(p, pos, n, w, t)) + 7) / 8 > avail) return false;
+    if ((pos + (t != 0 ? n : 0) + 7) / 8 > avail) return false;                                    // F
+    if (u != 0 && (pos + n + (n - popcount64(getBits(p, pos, n))) + 7) / 8 > avail) return false;  // G
+    if ((pos + uint64_t(sdagRefBits(p, pos, n, w, t, u)) + 7) / 8 > avail) return false;
     for (uint32_t i = 0; i < n; ++i)
-      if (!child(f, h, sdagRef(p, pos, n, i, w, t))) return false;
+      if (!child(f, h, sdagRef(p, pos, n, i, w, t, u))) return false;
     return true;
   }
   bool node(Format f, uint32_t h, uint64_t off) {
@@ -999,7 +1030,9 @@ constexpr uint32_t kMagic = 0x434e4553;  // "SENC"
 constexpr uint8_t kVersion = 1;          // arrays without the sdag directory
 constexpr uint8_t kVersionTiers = 2;     // the old sdag layout: directory with tiers, 16/32-bit index buffer
 constexpr uint8_t kVersionTwoBitUniform = 3;  // the old sdag layout: 2-bit uniform states (4-state)
-constexpr uint8_t kVersionDirectory = 4;  // arrays with it (directory with tiers + the packed index buffer)
+constexpr uint8_t kVersionPlainIndex =
+    4;  // the old sdag layout: 80-byte directory, no rank-packed index buffer
+constexpr uint8_t kVersionDirectory = 5;  // arrays with it (directory with tiers + the packed index buffer)
 
 }  // namespace
 
@@ -1085,6 +1118,45 @@ SdagBuild buildSdag(const std::vector<Micromap>& maps, std::vector<encode::DagMa
 
 }  // namespace
 
+namespace {
+
+// Writes `v`'s k low bits at bit `pos` of `out` (zeroed).
+void putPackedBits(std::vector<uint8_t>& out, uint64_t pos, uint64_t v, uint32_t k) {
+  for (uint32_t b = 0; b < k; ++b)
+    if ((v >> b) & 1u) out[(pos + b) >> 3] |= uint8_t(1u << ((pos + b) & 7u));
+}
+
+// The packed index buffer of an array with the directory: k bits per triangle, or rank-packed around the most
+// common value (ties: the smallest k-bit value) when that is smaller (ties: plain, one read).
+struct IndexPlan {
+  uint32_t bits = 0;
+  uint64_t def = 0, listed = 0, bytes = 0;
+  bool rank = false;
+};
+IndexPlan planIndex(const std::vector<int32_t>& indices, uint64_t maps) {
+  IndexPlan p;
+  p.bits = encode::sdagIndexBits(maps);
+  const uint64_t mask = (uint64_t(1) << p.bits) - 1u;
+  std::map<uint64_t, uint64_t> count;
+  for (int32_t i : indices) ++count[uint64_t(int64_t(i)) & mask];
+  uint64_t defCount = 0;
+  for (const auto& [v, c] : count) {
+    if (c <= defCount) continue;
+    p.def = v;
+    defCount = c;
+  }
+  p.listed = indices.size() - defCount;
+  p.bytes = encode::packedIndexBytes(indices.size(), p.bits);
+  const uint64_t rankBytes = encode::rankIndexBytes(indices.size(), p.listed, p.bits);
+  if (!indices.empty() && rankBytes < p.bytes) {
+    p.rank = true;
+    p.bytes = rankBytes;
+  }
+  return p;
+}
+
+}  // namespace
+
 Result<EncodedArray> EncodedArray::build(const OmmArray& array, Encoding encoding) {
   EncodedArray out;
   out.encoding_ = encoding;
@@ -1155,8 +1227,7 @@ Result<EncodedArray> EncodedArray::build(const OmmArray& array, Encoding encodin
       for (const auto& o : plain) plainBytes += o.blob.size();
       // (with the directory the index buffer is packed: compare whole arrays)
       const uint64_t specIndex = uint64_t(array.indices.size()) * uint64_t(out.indexType_);
-      const uint64_t packedIndex =
-          encode::packedIndexBytes(array.indices.size(), encode::sdagIndexBits(mapCount));
+      const uint64_t packedIndex = planIndex(array.indices, mapCount).bytes;
       if (plainBytes + specIndex <= best.data.size() + packedIndex)
         best = SdagBuild{{}, {}, std::move(plain), {}, false};
     }
@@ -1192,14 +1263,34 @@ Result<EncodedArray> EncodedArray::build(const OmmArray& array, Encoding encodin
 }
 
 void EncodedArray::packIndices() {
-  indexBits_ = encode::sdagIndexBits(maps_.size());
-  packed_.assign(encode::packedIndexBytes(indices_.size(), indexBits_) + encode::kTailPadding, 0);
-  const uint64_t mask = (uint64_t(1) << indexBits_) - 1u;
-  for (size_t t = 0; t < indices_.size(); ++t) {
-    const uint64_t v = uint64_t(int64_t(indices_[t])) & mask, pos = uint64_t(t) * indexBits_;
-    for (uint32_t k = 0; k < indexBits_; ++k)
-      if ((v >> k) & 1u) packed_[(pos + k) >> 3] |= uint8_t(1u << ((pos + k) & 7u));
+  const IndexPlan plan = planIndex(indices_, maps_.size());
+  indexBits_ = plan.bits;
+  const uint32_t k = indexBits_;
+  const uint64_t mask = (uint64_t(1) << k) - 1u, def = plan.def, triangles = indices_.size();
+  if (plan.rank) {
+    const uint64_t rankBytes = plan.bytes;
+    indexGroups_ = encode::rankIndexGroups(triangles);
+    packed_.assign(rankBytes + encode::kTailPadding, 0);
+    const uint64_t values = 8 * indexGroups_;
+    putPackedBits(packed_, values * 8, def, k);
+    uint64_t n = 0;
+    for (uint64_t g = 0; g < indexGroups_; ++g) {
+      uint64_t word = n;
+      for (uint64_t j = 0; j < encode::kRankIndexGroup && 32 * g + j < triangles; ++j) {
+        const uint64_t v = uint64_t(int64_t(indices_[32 * g + j])) & mask;
+        if (v == def) continue;
+        word |= uint64_t(1) << (32 + j);
+        putPackedBits(packed_, values * 8 + (1 + n) * k, v, k);
+        ++n;
+      }
+      for (uint32_t b = 0; b < 8; ++b) packed_[8 * g + b] = uint8_t(word >> (8 * b));
+    }
+    return;
   }
+  indexGroups_ = 0;
+  packed_.assign(plan.bytes + encode::kTailPadding, 0);
+  for (size_t t = 0; t < indices_.size(); ++t)
+    putPackedBits(packed_, uint64_t(t) * k, uint64_t(int64_t(indices_[t])) & mask, k);
 }
 
 Micromap EncodedArray::decodeMap(uint32_t map) const {
@@ -1229,7 +1320,7 @@ std::vector<uint8_t> EncodedArray::serialize() const {
   out.push_back(hasDirectory_ ? kVersionDirectory : kVersion);
   out.push_back(uint8_t(encoding_));
   out.push_back(hasDirectory_ ? uint8_t(indexBits_) : uint8_t(indexType_));
-  out.push_back(hasDirectory_ ? 1 : 0);
+  out.push_back(hasDirectory_ ? (indexGroups_ != 0 ? 3 : 1) : 0);
   putU32(out, uint32_t(indices_.size()));
   putU32(out, uint32_t(maps_.size()));
   putU32(out, uint32_t(dataBytes_));
@@ -1271,6 +1362,12 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
                      prefix +
                          "encoded array version 3 (the sdag layout with 2-bit uniform states) is no longer "
                          "supported (encode the micromaps again)");
+  if (p[4] == kVersionPlainIndex)
+    return makeError(
+        ErrorCode::UnsupportedFormat,
+        prefix +
+            "encoded array version 4 (the sdag layout with the 80-byte directory and no rank-packed index "
+            "buffer) is no longer supported (encode the micromaps again)");
   if (p[4] != kVersion && p[4] != kVersionDirectory)
     return makeError(ErrorCode::UnsupportedFormat,
                      prefix + "encoded array version " + std::to_string(p[4]) + " is not supported");
@@ -1279,24 +1376,45 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
                      prefix +
                          "encoded array version 1 with the old sdag layout is no longer supported "
                          "(encode the micromaps again)");
-  if (p[4] == kVersionDirectory && p[7] != 1)
-    return bad("encoded array version 4 without the sdag directory");
+  if (p[4] == kVersionDirectory && (p[7] & 1) != 1)
+    return bad("encoded array version 5 without the sdag directory");
   if (p[5] >= kEncodingCount) return bad("unknown encoding id " + std::to_string(p[5]));
   const bool packed = p[4] == kVersionDirectory;
   if (!packed && p[6] != 2 && p[6] != 4) return bad("index size must be 2 or 4 bytes");
   const Encoding enc = Encoding(p[5]);
-  if (p[7] > 1 || (p[7] == 1) != (enc == Encoding::Sdag || (enc == Encoding::Hybrid && p[7] == 1)))
+  if (p[7] > 3 || (p[7] & 1) != (enc == Encoding::Sdag || (enc == Encoding::Hybrid && (p[7] & 1))))
     return bad("bad flags byte (the directory flag is set for sdag, optional for hybrid)");
+  if (p[7] == 2) return bad("bad flags byte (a rank-packed index buffer without the sdag directory)");
   EncodedArray out;
   out.encoding_ = enc;
   out.indexType_ = packed ? IndexType::UInt16 : IndexType(p[6]);
-  out.hasDirectory_ = p[7] == 1;
+  out.hasDirectory_ = (p[7] & 1) != 0;
+  const bool rankPacked = p[7] == 3;
   const uint64_t triangles = getU32(p + 8), mapCount = getU32(p + 12), dataBytes = getU32(p + 16);
   if (packed && p[6] != encode::sdagIndexBits(mapCount))
     return bad("packed index width " + std::to_string(p[6]) + " bits, expected " +
                std::to_string(encode::sdagIndexBits(mapCount)) + " for " + std::to_string(mapCount) +
                " micromaps");
-  const uint64_t indexBytes = packed ? encode::packedIndexBytes(triangles, p[6]) : triangles * p[6];
+  // Rank-packed: the group words first (their counts must be the true ranks), which give the listed count.
+  uint64_t groups = 0, listed = 0;
+  if (rankPacked) {
+    if (triangles == 0) return bad("rank-packed index buffer of zero triangles");
+    groups = encode::rankIndexGroups(triangles);
+    if (encode::kArrayHeaderBytes + 8 * groups > bytes.size())
+      return bad("encoded array is truncated (declares more bytes than present)");
+    for (uint64_t g = 0; g < groups; ++g) {
+      const uint8_t* w = p + encode::kArrayHeaderBytes + 8 * g;
+      const uint32_t mask = getU32(w + 4), inGroup = uint32_t(std::min<uint64_t>(32, triangles - 32 * g));
+      if (getU32(w) != listed)
+        return bad("rank-packed index buffer: group " + std::to_string(g) + " count is wrong");
+      if (inGroup < 32 && (mask >> inGroup) != 0)
+        return bad("rank-packed index buffer lists triangles past the last one");
+      listed += encode::popcount64(mask);
+    }
+  }
+  const uint64_t indexBytes = rankPacked ? encode::rankIndexBytes(triangles, listed, p[6])
+                              : packed   ? encode::packedIndexBytes(triangles, p[6])
+                                         : triangles * p[6];
   const uint64_t fixed =
       encode::kArrayHeaderBytes + indexBytes + mapCount * encode::kDescriptorBytes + dataBytes;
   if (fixed > bytes.size()) return bad("encoded array is truncated (declares more bytes than present)");
@@ -1311,13 +1429,26 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
     out.indexBits_ = p[6];
     out.packed_.assign(q, q + indexBytes);
     out.packed_.resize(indexBytes + encode::kTailPadding, 0);
-    const uint64_t usedBits = triangles * p[6];
+    out.indexGroups_ = groups;
+    const uint64_t usedBits = rankPacked ? 64 * groups + (listed + 1) * p[6] : triangles * p[6];
     if (usedBits % 8 != 0 && (q[indexBytes - 1] >> (usedBits % 8)) != 0)
       return bad("packed index buffer has nonzero bits after the last triangle");
   }
+  const int32_t defaultIndex = rankPacked ? encode::packedIndex(out.packed_.data() + 8 * groups, p[6], 0) : 0;
+  if (rankPacked &&
+      !(isSpecialIndex(defaultIndex) || (defaultIndex >= 0 && uint64_t(defaultIndex) < mapCount)))
+    return bad("rank-packed index buffer: the default index " + std::to_string(defaultIndex) +
+               " is out of range");
   for (uint64_t t = 0; t < triangles; ++t) {
     int32_t v;
-    if (packed) {
+    if (rankPacked) {
+      v = encode::rankPackedIndex(out.packed_.data(), out.indexBits_, groups, uint32_t(t));
+      const bool isListed = (getU32(q + 8 * (t >> 5) + 4) >> (t & 31u)) & 1u;
+      if (isListed && v == defaultIndex)
+        return bad("rank-packed index buffer lists triangle " + std::to_string(t) +
+                   " with the default index");
+      if (v >= 0 && v > 0xfffb) out.indexType_ = IndexType::UInt32;
+    } else if (packed) {
       v = encode::packedIndex(out.packed_.data(), out.indexBits_, uint32_t(t));
       if (v >= 0 && v > 0xfffb) out.indexType_ = IndexType::UInt32;
     } else if (out.indexType_ == IndexType::UInt32) {
@@ -1339,15 +1470,19 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
     for (uint32_t k = 0; k <= encode::kSdagRegions; ++k) out.dir_.base[k] = getU32(data + 4 * k);
     for (uint32_t k = 0; k < encode::kSdagRegions; ++k) out.dir_.width[k] = data[52 + k];
     for (uint32_t k = 0; k < encode::kSdagRegions; ++k) out.dir_.tier[k] = data[64 + k];
-    if (getU32(data + 76) != 0) return bad("sdag directory's reserved bytes are not zero");
+    for (uint32_t k = 0; k < encode::kSdagRegions; ++k) out.dir_.mid[k] = data[76 + k];
+    if (getU32(data + 88) != 0 || getU32(data + 92) != 0)
+      return bad("sdag directory's reserved bytes are not zero");
     if (out.dir_.base[0] != encode::kSdagDirectoryBytes || out.dir_.base[encode::kSdagRegions] > dataBytes)
       return bad("sdag directory regions exceed the data buffer");
     for (uint32_t k = 0; k < encode::kSdagRegions; ++k)
       if (out.dir_.base[k + 1] < out.dir_.base[k] || out.dir_.width[k] > 32 ||
-          out.dir_.tier[k] > out.dir_.width[k])
+          out.dir_.tier[k] > out.dir_.width[k] ||
+          (out.dir_.mid[k] != 0 && (out.dir_.tier[k] == 0 || out.dir_.mid[k] <= out.dir_.tier[k] ||
+                                    out.dir_.mid[k] > out.dir_.width[k])))
         return bad(
-            "sdag directory is inconsistent (regions out of order, reference width above 32 or tier "
-            "above the width)");
+            "sdag directory is inconsistent (regions out of order, reference width above 32, tier above the "
+            "width, or mid not between the tier and the width)");
   }
   encode::SdagChecker sdag{data, dataBytes, out.dir_};
   encode::CsmChecker csm{data, dataBytes};

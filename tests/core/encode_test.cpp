@@ -13,7 +13,9 @@
 #include <tuple>
 #include <vector>
 
+#include "packed_index_oracle.h"
 #include "somm/omm_array.h"
+#include "somm_test_arrays.h"
 
 namespace somm {
 namespace {
@@ -115,6 +117,8 @@ OmmArray arrayOf(const std::vector<Micromap>& maps) {
   for (int32_t s = -1; s >= -4; --s) a.indices.push_back(s);
   return a;
 }
+
+using somm::testing::packedIndexBufferBytes;
 
 // Internal nodes of the collapsed tree, counted by brute force from the flat map (independent of the
 // encoder).
@@ -318,9 +322,8 @@ TYPED_TEST(EncodeTest, SizesEqualTheFormulas) {
   ASSERT_EQ(e.mapCount(), maps.size());
   if (isDag(TestFixture::kE)) {  // one shared DAG: only the framing has a closed form (see DagSizes tests)
     EXPECT_EQ(e.paddingBytes(), encode::kTailPadding);
-    const uint64_t indexBytes = e.hasDirectory()
-                                    ? (oracle.indices.size() * encode::sdagIndexBits(maps.size()) + 7) / 8
-                                    : 2u * oracle.indices.size();
+    const uint64_t indexBytes =
+        e.hasDirectory() ? packedIndexBufferBytes(oracle.indices, maps.size()) : 2u * oracle.indices.size();
     EXPECT_EQ(e.indexBufferBytes(), indexBytes);
     EXPECT_EQ(e.byteSize(), 20u + indexBytes + 8u * maps.size() + e.dataBytes() + 8u);
     EXPECT_EQ(e.serialize().size(), e.byteSize());
@@ -334,7 +337,7 @@ TYPED_TEST(EncodeTest, SizesEqualTheFormulas) {
           {formulaBytes(MapKind::Flat, m), formulaBytes(MapKind::Dfs, m), formulaBytes(MapKind::Rank, m)});
     // (with the directory the index buffer is packed: the data + index bytes are compared)
     EXPECT_LT(e.dataBytes() + e.indexBufferBytes(), plain + 2u * oracle.indices.size());
-    EXPECT_EQ(e.indexBufferBytes(), (oracle.indices.size() * encode::sdagIndexBits(maps.size()) + 7) / 8);
+    EXPECT_EQ(e.indexBufferBytes(), packedIndexBufferBytes(oracle.indices, maps.size()));
     EXPECT_EQ(e.byteSize(), 20u + e.indexBufferBytes() + 8u * maps.size() + e.dataBytes() + 8u);
     return;
   }
@@ -442,6 +445,7 @@ TYPED_TEST(EncodeTest, CorruptBytesRejected) {
   b = good;
   if (e.indexBits() != 0) {
     ASSERT_EQ(e.indexBits(), 3u);
+    ASSERT_FALSE(e.indexRankPacked());    // 7 triangles: k bits each is smaller
     b[20] = uint8_t((b[20] & ~7u) | 3u);  // packed value 3 with 3 maps (4..7 are the specials)
   } else {
     b[20] = 7;  // index 7 with 3 maps
@@ -526,25 +530,26 @@ TEST(EncodeDag, WorkedExampleLayouts) {
   EXPECT_EQ(csm.maps()[0].offset, 4u);
   EXPECT_EQ(csm.maps()[0].kind, MapKind::Csm);
   const EncodedArray sdag = EncodedArray::build(a, Encoding::Sdag).value();
-  ASSERT_EQ(sdag.dataBytes(), 83u);
+  ASSERT_EQ(sdag.dataBytes(), 99u);
   EXPECT_TRUE(sdag.hasDirectory());
-  EXPECT_EQ(sdag.directory().base[0], 80u);
-  for (uint32_t k = 1; k <= encode::kSdagRegions; ++k) EXPECT_EQ(sdag.directory().base[k], 82u);
+  EXPECT_EQ(sdag.directory().base[0], 96u);
+  for (uint32_t k = 1; k <= encode::kSdagRegions; ++k) EXPECT_EQ(sdag.directory().base[k], 98u);
   for (uint32_t k = 0; k < encode::kSdagRegions; ++k) EXPECT_EQ(sdag.directory().width[k], 0u);
   for (uint32_t k = 0; k < encode::kSdagRegions; ++k) EXPECT_EQ(sdag.directory().tier[k], 0u);
-  EXPECT_EQ(sdag.data()[0], 80u);
-  EXPECT_EQ(sdag.data()[4], 82u);
-  EXPECT_EQ(sdag.data()[80], 0xff);
-  EXPECT_EQ(sdag.data()[81], 0x00);
-  EXPECT_EQ(sdag.data()[82], 0x2c);
+  EXPECT_EQ(sdag.data()[0], 96u);
+  EXPECT_EQ(sdag.data()[4], 98u);
+  EXPECT_EQ(sdag.data()[96], 0xff);
+  EXPECT_EQ(sdag.data()[97], 0x00);
+  EXPECT_EQ(sdag.data()[98], 0x2c);
   EXPECT_EQ(sdag.serialize()[4],
-            4u);  // arrays with the directory (and the packed index buffer) are version 4
+            5u);  // arrays with the directory (and the packed index buffer) are version 5
+  EXPECT_EQ(sdag.serialize()[7], 1u);  // the directory; the index buffer is not rank-packed (5 triangles)
   EXPECT_EQ(sdag.serialize()[6], 3u);  // one map: k = bits for 0 .. 1 + 3
   // triangles 0..4 → map 0, then -1..-4 as 7, 6, 5, 4 (3 bits each): 0x4bb8
   EXPECT_EQ(sdag.serialize()[20], 0xb8);
   EXPECT_EQ(sdag.serialize()[21], 0x4b);
-  EXPECT_EQ(sdag.byteSize(), 20u + 2u + 8u + 83u + 8u);
-  EXPECT_EQ(sdag.maps()[0].offset, 82u);
+  EXPECT_EQ(sdag.byteSize(), 20u + 2u + 8u + 99u + 8u);
+  EXPECT_EQ(sdag.maps()[0].offset, 98u);
   EXPECT_EQ(sdag.maps()[0].kind, MapKind::Sdag);
   for (uint32_t i = 0; i < 64; ++i) {
     EXPECT_EQ(csm.state(0, i), m.get(i)) << i;
@@ -563,16 +568,16 @@ TEST(EncodeDag, WorkedExampleTieredReferences) {
   const EncodedArray sdag = EncodedArray::build(arrayOf({m}), Encoding::Sdag).value();
   const std::vector<uint8_t> regions{0xff, 0x00, 0x0f, 0x0f, 0x33, 0x33, 0x55,
                                      0x55, 0xff, 0xff, 0xff, 0x1f, 0x39};
-  ASSERT_EQ(sdag.dataBytes(), 93u);
-  EXPECT_EQ(std::vector<uint8_t>(sdag.data().begin() + 80, sdag.data().begin() + 93), regions);
+  ASSERT_EQ(sdag.dataBytes(), 109u);
+  EXPECT_EQ(std::vector<uint8_t>(sdag.data().begin() + 96, sdag.data().begin() + 109), regions);
   const encode::SdagDirectory& dir = sdag.directory();
-  EXPECT_EQ(dir.base[0], 80u);
-  EXPECT_EQ(dir.base[1], 88u);
-  for (uint32_t k = 2; k <= encode::kSdagRegions; ++k) EXPECT_EQ(dir.base[k], 93u);
+  EXPECT_EQ(dir.base[0], 96u);
+  EXPECT_EQ(dir.base[1], 104u);
+  for (uint32_t k = 2; k <= encode::kSdagRegions; ++k) EXPECT_EQ(dir.base[k], 109u);
   EXPECT_EQ(dir.width[0], 2u);
   EXPECT_EQ(dir.tier[0], 1u);  // short references: 0 bits (the leaf used 13 times)
   for (uint32_t k = 1; k < encode::kSdagRegions; ++k) EXPECT_EQ(dir.width[k] + dir.tier[k], 0u);
-  EXPECT_EQ(sdag.maps()[0].offset, 88u);
+  EXPECT_EQ(sdag.maps()[0].offset, 104u);
   EXPECT_EQ(sdag.state(0, 213), State::Transparent);
   EXPECT_EQ(sdag.state(0, 100), State::Opaque);
   for (uint32_t i = 0; i < 256; ++i) EXPECT_EQ(sdag.state(0, i), m.get(i)) << i;
@@ -595,6 +600,12 @@ TEST(EncodeDag, WorkedExampleTieredReferences) {
   ASSERT_FALSE(v3);
   EXPECT_EQ(v3.error().code, ErrorCode::UnsupportedFormat);
   EXPECT_NE(v3.error().message.find("version 3"), std::string::npos) << v3.error().message;
+  // Version 4 (no rank-packed index buffer) is refused clearly too.
+  bytes[4] = 4;
+  const auto v4 = EncodedArray::parse(bytes, "v4.somm");
+  ASSERT_FALSE(v4);
+  EXPECT_EQ(v4.error().code, ErrorCode::UnsupportedFormat);
+  EXPECT_NE(v4.error().message.find("version 4"), std::string::npos) << v4.error().message;
 }
 
 // docs/encodings.md's third worked example: 4-state uniform children take 1 bit; a uniformly unknown child is a
@@ -606,15 +617,15 @@ TEST(EncodeDag, WorkedExampleUnknownUniformChild) {
   for (uint32_t i = 32; i < 48; ++i) m.set(i, State(i % 4));
   const EncodedArray sdag = EncodedArray::build(arrayOf({m}), Encoding::Sdag).value();
   const std::vector<uint8_t> regions{0xff, 0xff, 0xff, 0xff, 0xe4, 0xe4, 0xe4, 0xe4, 0x05, 0x00, 0x01, 0x80};
-  ASSERT_EQ(sdag.dataBytes(), 92u);
-  EXPECT_EQ(std::vector<uint8_t>(sdag.data().begin() + 80, sdag.data().begin() + 92), regions);
+  ASSERT_EQ(sdag.dataBytes(), 108u);
+  EXPECT_EQ(std::vector<uint8_t>(sdag.data().begin() + 96, sdag.data().begin() + 108), regions);
   const encode::SdagDirectory& dir = sdag.directory();
-  for (uint32_t k = 0; k <= 6; ++k) EXPECT_EQ(dir.base[k], 80u);
-  EXPECT_EQ(dir.base[7], 88u);
-  for (uint32_t k = 8; k <= encode::kSdagRegions; ++k) EXPECT_EQ(dir.base[k], 92u);
+  for (uint32_t k = 0; k <= 6; ++k) EXPECT_EQ(dir.base[k], 96u);
+  EXPECT_EQ(dir.base[7], 104u);
+  for (uint32_t k = 8; k <= encode::kSdagRegions; ++k) EXPECT_EQ(dir.base[k], 108u);
   EXPECT_EQ(dir.width[6], 1u);
   EXPECT_EQ(dir.tier[6], 0u);
-  EXPECT_EQ(sdag.maps()[0].offset, 88u);
+  EXPECT_EQ(sdag.maps()[0].offset, 104u);
   EXPECT_EQ(sdag.state(0, 5), State::UnknownOpaque);
   EXPECT_EQ(sdag.state(0, 20), State::Opaque);
   EXPECT_EQ(sdag.state(0, 39), State::UnknownOpaque);
@@ -663,6 +674,108 @@ TEST(EncodeDag, PackedIndexBuffer) {
   std::vector<uint8_t> width = bytes;
   width[6] = 4;
   EXPECT_FALSE(EncodedArray::parse(width));
+}
+
+// docs/encodings.md's rank-packed index buffer example: 100 triangles, all opaque (-2) but four; M = 2, k = 3.
+// Exact bytes, every lookup, round trip, and the corruptions the parser refuses.
+TEST(EncodeDag, RankPackedIndexBuffer) {
+  Micromap a(2, Format::FourState), b(3, Format::FourState);
+  for (uint32_t i = 0; i < 16; ++i) a.set(i, State(i & 3));
+  for (uint32_t i = 0; i < 64; ++i) b.set(i, State((i >> 2) & 3));
+  OmmArray arr = arrayOf({a, b});
+  arr.indices.assign(100, -2);
+  arr.indices[1] = 0;
+  arr.indices[33] = 1;
+  arr.indices[35] = -1;
+  arr.indices[99] = 0;
+  const EncodedArray e = EncodedArray::build(arr, Encoding::Sdag).value();
+  ASSERT_EQ(e.indexBits(), 3u);
+  ASSERT_TRUE(e.indexRankPacked());
+  ASSERT_EQ(e.indexBufferBytes(), 34u);  // 4 group words + 5 entries of 3 bits (plain: 300 bits = 38 bytes)
+  EXPECT_EQ(packedIndexBufferBytes(arr.indices, 2), 34u);
+  const std::vector<uint8_t> bytes = e.serialize();
+  EXPECT_EQ(bytes[4], 5u);
+  EXPECT_EQ(bytes[7], 3u);  // the directory + the rank-packed index buffer
+  const std::vector<uint8_t> index{
+      0x00, 0x00, 0x00, 0x00, 0x02, 0x00, 0x00, 0x00,  // group 0: 0 listed before, triangle 1
+      0x01, 0x00, 0x00, 0x00, 0x0a, 0x00, 0x00, 0x00,  // group 1: 1 before, triangles 33, 35
+      0x03, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,  // group 2: 3 before, none
+      0x03, 0x00, 0x00, 0x00, 0x08, 0x00, 0x00, 0x00,  // group 3 (triangles 96..99): 3 before, triangle 99
+      0x46, 0x0e};  // entries 6 (the default, -2), 0, 1, 7 (-1), 0: 3 bits each
+  EXPECT_EQ(std::vector<uint8_t>(bytes.begin() + 20, bytes.begin() + 54), index);
+  for (uint32_t t = 0; t < 100; ++t) {
+    EXPECT_EQ(e.indexAs<Encoding::Sdag>(t), arr.indices[t]) << t;
+    EXPECT_EQ(e.stateAs<Encoding::Sdag>(t, 5), arr.state(t, 5)) << t;
+  }
+  const EncodedArray back = EncodedArray::parse(bytes).value();
+  EXPECT_EQ(back, e);
+  EXPECT_TRUE(back.indexRankPacked());
+  EXPECT_EQ(std::vector<int32_t>(back.indices().begin(), back.indices().end()), arr.indices);
+  auto refused = [&](std::vector<uint8_t> bad, const char* what) {
+    EXPECT_FALSE(EncodedArray::parse(bad)) << what;
+  };
+  std::vector<uint8_t> bad = bytes;
+  bad[28] = 2;  // group 1 claims 2 listed triangles before it
+  refused(bad, "count");
+  bad = bytes;
+  bad[44 + 4] |= 0x10;  // group 3 lists triangle 100 (past the last)
+  refused(bad, "mask past the end");
+  bad = bytes;
+  bad[53] |= 0x80;  // a bit after the last entry
+  refused(bad, "stray bits");
+  bad = bytes;
+  bad[52] = uint8_t((bad[52] & ~0x38u) | (6u << 3));  // entry 1 = the default value
+  refused(bad, "listed default");
+  bad = bytes;
+  bad[52] = uint8_t((bad[52] & ~7u) | 2u);  // default value 2: between M and 2^k - 4
+  refused(bad, "default out of range");
+  bad = bytes;
+  bad[7] = 2;  // rank-packed without the directory
+  refused(bad, "flags");
+  // The same values with an extra listed triangle stay consistent: moving triangle 99 to group 2 is refused
+  // (group 3's count no longer matches), the count fixed accepts it.
+  bad = bytes;
+  bad[44 + 4] = 0;
+  bad[36 + 4] = 0x01;  // triangle 64 listed instead of 99
+  EXPECT_FALSE(EncodedArray::parse(bad));
+  bad[44] = 4;
+  const auto moved = EncodedArray::parse(bad);
+  ASSERT_TRUE(moved) << moved.error().message;
+  EXPECT_EQ(moved->indices()[64], 0);
+  EXPECT_EQ(moved->indices()[99], -2);
+  EXPECT_EQ(moved->indexAs<Encoding::Sdag>(64), 0);
+  EXPECT_EQ(moved->indexAs<Encoding::Sdag>(99), -2);
+}
+
+// The three-class reference code (docs/encodings.md, sdag: tier and mid): random level-6..8 maps give a leaf region
+// whose references are short, mid or long. Lookups equal flat, decode is bit-exact, parse round-trips, and a
+// directory whose mid is not between the tier and the width is refused.
+TEST(EncodeDag, MidReferenceClass) {
+  const OmmArray flat = somm::testing::randomOmmArray(200, Format::FourState, 6, 8, 1);
+  const EncodedArray e = EncodedArray::build(flat, Encoding::Sdag).value();
+  const uint32_t k = encode::sdagRegion(Format::FourState, 1);
+  const encode::SdagDirectory& dir = e.directory();
+  ASSERT_NE(dir.mid[k], 0u);
+  EXPECT_GT(dir.mid[k], dir.tier[k]);
+  EXPECT_GT(dir.tier[k], 0u);
+  EXPECT_LE(dir.mid[k], dir.width[k]);
+  for (uint32_t t = 0; t < flat.indices.size(); ++t) {
+    const int32_t i = flat.indices[t];
+    const uint32_t n = i < 0 ? 1 : microTriangleCount(flat.descriptors[size_t(i)].subdivisionLevel);
+    for (uint32_t x = 0; x < n; x += 7) ASSERT_EQ(e.state(t, x), flat.state(t, x)) << t << " " << x;
+  }
+  EXPECT_TRUE(sameArray(e.decode(), flat));
+  const std::vector<uint8_t> bytes = e.serialize();
+  EXPECT_EQ(EncodedArray::parse(bytes).value(), e);
+  const size_t data = 20 + e.indexBufferBytes() + 8 * e.mapCount();
+  std::vector<uint8_t> bad = bytes;
+  bad[data + 76 + k] = dir.tier[k];  // mid = tier
+  EXPECT_FALSE(EncodedArray::parse(bad));
+  bad[data + 76 + k] = uint8_t(dir.width[k] + 1);  // mid above the width
+  EXPECT_FALSE(EncodedArray::parse(bad));
+  bad = bytes;
+  bad[data + 88] = 1;  // reserved
+  EXPECT_FALSE(EncodedArray::parse(bad));
 }
 
 // Identical subtrees of different maps are stored once: a second map that differs from the first in one

@@ -97,6 +97,42 @@ TEST(GpuLookup, ThirtyTwoBitIndexBuffer) {
   expectStatesMatch(*device, a, "32-bit indices", 2);
 }
 
+// Mostly special indices (as on real foliage, where most triangles are opaque): arrays with the sdag directory
+// store the rank-packed index buffer (group words + the listed triangles' entries), which the shader reads too.
+// 3000 triangles, so several groups, a partial last group and listed runs that cross group boundaries.
+TEST(GpuLookup, RankPackedIndexBuffer) {
+  SOMM_OPEN_DEVICE_OR_SKIP(device);
+  somm::OmmArrayBuilder b;
+  std::mt19937 rng(17);
+  for (uint32_t t = 0; t < 3003; ++t) {
+    somm::Micromap m(3, somm::Format::FourState,
+                     t % 50 == 0 ? somm::State::Transparent : somm::State::Opaque);
+    if (t % 9 == 4 || (t >= 1000 && t < 1070)) {
+      for (uint32_t k = 0; k < 64; ++k) m.set(k, somm::State(rng() % 4));
+    }
+    b.add(m);
+  }
+  const somm::OmmArray a = b.finish();
+  for (somm::Encoding e : {somm::Encoding::Sdag, somm::Encoding::Hybrid}) {
+    const auto enc = somm::EncodedArray::build(a, e);
+    ASSERT_TRUE(enc) << enc.error().message;
+    if (enc->hasDirectory()) {
+      EXPECT_TRUE(enc->indexRankPacked()) << somm::encodingName(e);
+    }
+  }
+  expectStatesMatch(*device, a, "rank-packed indices", 64);
+}
+
+// sdag's three-class references (short / mid / long, flags F and G): a leaf region with a mid class.
+TEST(GpuLookup, SdagMidReferenceClass) {
+  SOMM_OPEN_DEVICE_OR_SKIP(device);
+  const somm::OmmArray a = somm::testing::randomOmmArray(200, somm::Format::FourState, 6, 8, 1);
+  const auto enc = somm::EncodedArray::build(a, somm::Encoding::Sdag);
+  ASSERT_TRUE(enc) << enc.error().message;
+  ASSERT_NE(enc->directory().mid[somm::encode::sdagRegion(somm::Format::FourState, 1)], 0u);
+  expectStatesMatch(*device, a, "sdag mid references", 400);
+}
+
 // A dfs skip close to lavapipe's loop budget (65 535 loop iterations per invocation, shared by all loops;
 // docs/shaders.md): a level-11 map whose first two quadrants are random (2 × 349 525 internal nodes, ~2.8 M tree
 // bits) and whose last two are uniform. A lookup in quadrant 3 skips both random subtrees: ~58 000 iterations of

@@ -94,8 +94,8 @@ TEST(ShaderConstants, EqualTheCppLayout) {
     const std::string src = readShader(file);
     ASSERT_FALSE(src.empty()) << file;
     std::map<std::string, uint64_t> c = constants(src);
-    // The DAG encodings (docs/encodings.md: the sdag directory is 80 bytes): checked when the C++ has them.
-    EXPECT_EQ(c["SOMM_SDAG_DIRECTORY_BYTES"], 80u) << file;
+    // The DAG encodings (docs/encodings.md: the sdag directory is 96 bytes): checked when the C++ has them.
+    EXPECT_EQ(c["SOMM_SDAG_DIRECTORY_BYTES"], 96u) << file;
     c.erase("SOMM_SDAG_DIRECTORY_BYTES");
     for (const auto& [name, value] : dag) {
       if (value >= 0) {
@@ -124,19 +124,28 @@ TEST(ShaderConstants, ArrayHeaderFieldsWhereTheShaderReadsThem) {
       const std::vector<uint8_t> b = a->serialize();
       EXPECT_EQ(le32(b, 0), c.at("SOMM_ARRAY_MAGIC")) << file;
       EXPECT_EQ(b[5], uint8_t(e));
-      // Byte 7 bit 0 (the sdag directory): byte 6 is the packed index width k, the buffer ceil(T·k / 8) bytes.
-      const bool packed = (b[7] & 1u) != 0;
+      // Byte 7 bit 0 (the sdag directory): byte 6 is the packed index width k, the buffer ceil(T·k / 8) bytes;
+      // bit 1: rank-packed, 8·ceil(T/32) bytes of group words, then ceil((listed + 1)·k / 8) bytes of entries,
+      // listed = the last word's count + the popcount of its mask.
+      const bool packed = (b[7] & 1u) != 0, rank = (b[7] & 2u) != 0;
       EXPECT_EQ(packed, a->hasDirectory());
-      EXPECT_EQ(b[4], packed ? 4u : 1u);
+      EXPECT_EQ(rank, a->indexRankPacked());
+      EXPECT_EQ(b[4], packed ? 5u : 1u);
       EXPECT_EQ(b[6], packed ? uint8_t(a->indexBits()) : uint8_t(a->indexType()));
       if (packed) {
         EXPECT_EQ(a->indexBits(), somm::encode::sdagIndexBits(a->mapCount()));
       }
       EXPECT_EQ(le32(b, 8), a->triangleCount());
       EXPECT_EQ(le32(b, 12), a->mapCount());
-      const size_t desc =
-          c.at("SOMM_ARRAY_HEADER_BYTES") +
-          (packed ? (size_t(a->triangleCount()) * b[6] + 7) / 8 : size_t(a->triangleCount()) * b[6]);
+      size_t indexBytes =
+          packed ? (size_t(a->triangleCount()) * b[6] + 7) / 8 : size_t(a->triangleCount()) * b[6];
+      if (rank) {
+        const size_t groups = (a->triangleCount() + 31) / 32, last = 20 + 8 * (groups - 1);
+        const size_t entries = le32(b, last) + size_t(__builtin_popcount(le32(b, last + 4))) + 1;
+        indexBytes = 8 * groups + (entries * b[6] + 7) / 8;
+      }
+      EXPECT_EQ(indexBytes, a->indexBufferBytes());
+      const size_t desc = c.at("SOMM_ARRAY_HEADER_BYTES") + indexBytes;
       for (uint32_t m = 0; m < a->mapCount(); ++m) {
         const size_t d = desc + m * c.at("SOMM_DESCRIPTOR_BYTES");
         EXPECT_EQ(le32(b, d), a->maps()[m].offset);

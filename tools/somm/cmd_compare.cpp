@@ -52,7 +52,7 @@ void printSdagAnalysis(const somm::EncodedArray& a) {
   for (uint64_t off = dir.base[k2]; off < dir.base[k2 + 1];) {
     const uint8_t* p = data + off;
     const uint32_t m = load16(p), n = popcount64(m);
-    const uint32_t pos = 32 - n, w = dir.width[k1], t = dir.tier[k1];
+    const uint32_t pos = 32 - n, w = dir.width[k1], t = dir.tier[k1], u = dir.mid[k1];
     uint64_t st = 0;
     bool o01 = true;
     for (uint32_t i = 0; i < 16 - n; ++i) {
@@ -69,17 +69,18 @@ void printSdagAnalysis(const somm::EncodedArray& a) {
     uint32_t slot = 0, j = 0;
     for (uint32_t s = 0; s < 16; ++s)
       if (m >> s & 1u) {
-        const uint32_t r = sdagRef(p, pos, n, j++, w, t);
+        const uint32_t r = sdagRef(p, pos, n, j++, w, t, u);
         ++leafUse[r];
         ++leafUseSlot[s][r];
       }
     (void)slot;
-    const uint32_t rb = sdagRefBits(p, pos, n, w, t);
+    const uint32_t rb = sdagRefBits(p, pos, n, w, t, u);
     const uint32_t bytes = (pos + rb + 7) / 8;
     maskBits += 16;
     stateBits += 16 - n;
-    flagBits += t ? n : 0;
-    refBits += rb - (t ? n : 0);
+    const uint32_t flags = t ? n + (u ? n - popcount64(getBits(p, pos, n)) : 0) : 0;  // F and G
+    flagBits += flags;
+    refBits += rb - flags;
     padBits += bytes * 8 - pos - rb;
     h2off.push_back(uint32_t(off - dir.base[k2]));
     off += bytes;
@@ -116,9 +117,9 @@ void printSdagAnalysis(const somm::EncodedArray& a) {
   for (uint64_t off = dir.base[k3]; off < dir.base[k3 + 1];) {
     const uint8_t* p = data + off;
     const uint32_t m = load16(p), n = popcount64(m);
-    const uint32_t pos = 32 - n, w = dir.width[k2], t = dir.tier[k2];
-    for (uint32_t j = 0; j < n; ++j) ++h2use[sdagRef(p, pos, n, j, w, t)];
-    const uint32_t rb = sdagRefBits(p, pos, n, w, t);
+    const uint32_t pos = 32 - n, w = dir.width[k2], t = dir.tier[k2], u = dir.mid[k2];
+    for (uint32_t j = 0; j < n; ++j) ++h2use[sdagRef(p, pos, n, j, w, t, u)];
+    const uint32_t rb = sdagRefBits(p, pos, n, w, t, u);
     h3refBits += rb;
     h3refs += n;
     off += (pos + rb + 7) / 8;
@@ -531,15 +532,17 @@ int run(const Options& o) {
           const auto& dir = a->directory();
           std::string line = "sdag L" + std::to_string(level) + ":";
           for (uint32_t h = 1; h <= 6; ++h) {
-            uint64_t b = 0, w = 0, t = 0;
+            uint64_t b = 0, w = 0, t = 0, u = 0;
             for (uint32_t f = 1; f <= 2; ++f) {
               const uint32_t k = somm::encode::sdagRegion(somm::Format(f), h);
               b += dir.base[k + 1] - dir.base[k];
               w = std::max<uint64_t>(w, dir.width[k]);
               t = std::max<uint64_t>(t, dir.tier[k]);
+              u = std::max<uint64_t>(u, dir.mid[k]);
             }
             line += " h" + std::to_string(h) + " " + std::to_string(b) + " B (ref " + std::to_string(w) +
-                    (t != 0 ? " or " + std::to_string(t - 1) : std::string()) + " bits)";
+                    (t != 0 ? " or " + std::to_string(t - 1) : std::string()) +
+                    (u != 0 ? " or " + std::to_string(u - 1) : std::string()) + " bits)";
           }
           // Records and references per height (4-state regions), and how the leaf references spread.
           {
@@ -548,18 +551,18 @@ int run(const Options& o) {
             for (uint32_t h = 2; h <= 6; ++h) {
               const uint32_t k = somm::encode::sdagRegion(somm::Format::FourState, h);
               uint64_t recs = 0, refs = 0;
-              const uint32_t w = dir.width[k - 1], t = dir.tier[k - 1];
+              const uint32_t w = dir.width[k - 1], t = dir.tier[k - 1], u = dir.mid[k - 1];
               for (uint64_t off = dir.base[k]; off < dir.base[k + 1];) {
                 const uint8_t* p = data + off;
                 const uint32_t m = somm::encode::load16(p), n = somm::encode::popcount64(m);
                 const uint32_t pos = 32 - n;
                 if (h == 2)
                   for (uint32_t i = 0; i < n; ++i) {
-                    const uint32_t r = somm::encode::sdagRef(p, pos, n, i, w, t);
+                    const uint32_t r = somm::encode::sdagRef(p, pos, n, i, w, t, u);
                     if (r >= leafRefs.size()) leafRefs.resize(r + 1);
                     ++leafRefs[r];
                   }
-                off += (pos + somm::encode::sdagRefBits(p, pos, n, w, t) + 7) / 8;
+                off += (pos + somm::encode::sdagRefBits(p, pos, n, w, t, u) + 7) / 8;
                 ++recs;
                 refs += n;
               }

@@ -333,7 +333,7 @@ std::pair<double, double> commandPeakMiB(const std::string& path, uint32_t level
   if (pid == 0) {
     double res[2] = {-1, 0};
 #ifdef __GLIBC__
-    mallopt(M_MMAP_THRESHOLD, 256 * 1024);
+    mallopt(M_MMAP_THRESHOLD, 4 << 20);
     malloc_trim(0);
 #endif
     std::ofstream clear("/proc/self/clear_refs");

@@ -287,22 +287,17 @@ TEST(Obj, ImageKindsKeepTheDecodersAlpha) {
     const std::string path = dir.file(c.file);
     int sw = 0, sh = 0, comp = 0;
     const bool sixteen = c.storage == somm::AlphaStorage::UInt16;
-    std::vector<uint16_t> expect;  // stb's alpha of texture texel (x, y) = image row h - 1 - y
-    if (sixteen) {
-      stbi_us* px = stbi_load_16(path.c_str(), &sw, &sh, &comp, 0);
-      ASSERT_TRUE(px);
-      for (uint32_t y = 0; y < h; ++y)
-        for (uint32_t x = 0; x < w; ++x)
-          expect.push_back(px[((h - 1 - y) * w + x) * uint32_t(comp) + uint32_t(comp) - 1]);
-      stbi_image_free(px);
-    } else {
-      stbi_uc* px = stbi_load(path.c_str(), &sw, &sh, &comp, 0);
-      ASSERT_TRUE(px);
-      for (uint32_t y = 0; y < h; ++y)
-        for (uint32_t x = 0; x < w; ++x)
-          expect.push_back(px[((h - 1 - y) * w + x) * uint32_t(comp) + uint32_t(comp) - 1]);
-      stbi_image_free(px);
-    }
+    // stb's alpha of texture texel (x, y) = image row h - 1 - y (the last channel), decoded at the file's precision.
+    void* px = sixteen ? static_cast<void*>(stbi_load_16(path.c_str(), &sw, &sh, &comp, 0))
+                       : static_cast<void*>(stbi_load(path.c_str(), &sw, &sh, &comp, 0));
+    ASSERT_TRUE(px);
+    std::vector<uint16_t> expect;
+    for (uint32_t y = 0; y < h; ++y)
+      for (uint32_t x = 0; x < w; ++x) {
+        const size_t i = ((h - 1 - y) * w + x) * uint32_t(comp) + uint32_t(comp) - 1;
+        expect.push_back(sixteen ? static_cast<const uint16_t*>(px)[i] : static_cast<const uint8_t*>(px)[i]);
+      }
+    stbi_image_free(px);
     ASSERT_EQ(sw, int(w));
     ASSERT_EQ(sh, int(h));
     ASSERT_TRUE(comp == 2 || comp == 4) << comp;

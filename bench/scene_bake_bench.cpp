@@ -7,10 +7,14 @@
 //    deterministic 1/k sample of the unique triangles and is extrapolated (k reported);
 //  * `vs_pergeometry` (level 6): today's per-geometry path, bakeGeometry on every geometry in turn (no sharing);
 //  * `speedup_2t`: wall time of the one-thread bake over this one (the 2-thread runs);
-//  * BM_BakeCommand: the same ratio for the whole load + bake + write path, one and two threads interleaved.
+//  * BM_BakeCommand: the same ratio for the whole load + bake + write path, one and two threads interleaved, and
+//    that path's peak memory against masks + output (`command_peak_over_masks_output`, target ≤ 2).
 // Every run checks its result: conservative against the alpha test on a sample (float UV interpolation at random
 // points of known micro-triangles, `violations` must be 0) and byte-identical to the one-thread bake.
 #include <benchmark/benchmark.h>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <tbb/global_control.h>
@@ -28,6 +32,7 @@
 #include <memory>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "somm/bake.h"
@@ -266,10 +271,99 @@ void BM_BakeScene(benchmark::State& state, const char* rel) {
                  std::to_string(threads));
 }
 
-// The whole `somm bake SCENE -o F.somm` path in this process — load the scene (images decoded in parallel), bake,
-// write the .somm file — under a thread cap as `somm bake -j N` sets it (tbb::global_control). One and two threads
-// run interleaved, three times each: `speedup_2t` is the best one-thread wall time over the best two-thread one;
-// `bake_speedup_2t` the same for bakeScene alone, from the same runs; the outputs must be byte-identical.
+// One `somm bake SCENE -o F.somm` in this process, as the command runs it: load the scene without colour images
+// (images decoded in parallel), bake, write the .somm file — under a thread cap as `somm bake -j N` sets it
+// (tbb::global_control). Returns the bake's wall seconds and its masks + output bytes (the memory target's unit), or
+// an error.
+struct CommandRun {
+  double bakeSeconds = 0;
+  uint64_t masksOutputBytes = 0;
+};
+somm::Result<CommandRun> bakeCommand(const std::string& path, uint32_t level, uint32_t threads,
+                                     const std::string& out) {
+  tbb::global_control cap(tbb::global_control::max_allowed_parallelism, threads);
+  somm::LoadOptions lo;
+  lo.loadColor = false;
+  auto scene = somm::loadScene(path, lo);
+  if (!scene) return scene.error();
+  const auto b0 = std::chrono::steady_clock::now();
+  auto r = somm::bakeScene(*scene, options(level, threads));
+  const auto b1 = std::chrono::steady_clock::now();
+  if (!r) return r.error();
+  CommandRun run;
+  run.bakeSeconds = std::chrono::duration<double>(b1 - b0).count();
+  run.masksOutputBytes = r->maskBytes + r->total.dataBytes + r->total.triangles * 4;
+  somm::SommFile f;
+  f.sourcePath = path;
+  f.toolVersion = "somm bench";
+  for (size_t g = 0; g < scene->geometries.size(); ++g) {
+    somm::GeometryInfo info;
+    info.name = scene->geometries[g].name;
+    info.material = scene->materials[scene->geometries[g].material].name;
+    info.triangleCount = scene->geometries[g].triangleCount();
+    info.minLevel = r->geometries[g].stats.minLevel;
+    info.maxLevel = r->geometries[g].stats.maxLevel;
+    f.geometries.push_back(std::move(info));
+  }
+  f.micromaps = std::move(r->micromaps);
+  f.encodings.assign(f.micromaps.arrays.size(), {});
+  if (somm::Status st = somm::writeSommFile(out, f); !st) return st.error();
+  return run;
+}
+
+// A line "Key:   N kB" of /proc/self/status, in KiB; -1 when absent.
+long procStatusKiB(const char* key) {
+  std::ifstream in("/proc/self/status");
+  std::string line;
+  const std::string k = std::string(key) + ":";
+  while (std::getline(in, line))
+    if (line.rfind(k, 0) == 0) return std::atol(line.c_str() + k.size());
+  return -1;
+}
+
+// The whole command's peak memory (load + bake + write) above the process it starts from, against masks + output:
+// a forked child sets the allocator policy `somm bake` sets (mallopt), hands the parent's free heap pages back
+// (malloc_trim, so reusing them cannot hide growth), resets its RSS high-water mark (/proc/self/clear_refs "5") and
+// runs bakeCommand; peak = VmHWM − VmRSS at the start. {-1, 0} when the high-water mark cannot be reset.
+std::pair<double, double> commandPeakMiB(const std::string& path, uint32_t level, uint32_t threads,
+                                         const std::string& out) {
+  int fd[2];
+  if (pipe(fd) != 0) return {-1, 0};
+  const pid_t pid = fork();
+  if (pid == 0) {
+    double res[2] = {-1, 0};
+#ifdef __GLIBC__
+    mallopt(M_MMAP_THRESHOLD, 4 << 20);
+    malloc_trim(0);
+#endif
+    std::ofstream clear("/proc/self/clear_refs");
+    clear << "5" << std::flush;
+    const long start = procStatusKiB("VmRSS");
+    if (clear.good() && start >= 0) {
+      auto r = bakeCommand(path, level, threads, out);
+      const long hwm = procStatusKiB("VmHWM");
+      if (r && hwm >= start) {
+        res[0] = double(hwm - start) / 1024.0;
+        res[1] = double(r->masksOutputBytes) / double(1 << 20);
+      }
+    }
+    (void)!write(fd[1], res, sizeof res);
+    _exit(0);
+  }
+  close(fd[1]);
+  double res[2] = {-1, 0};
+  if (read(fd[0], res, sizeof res) != sizeof res) res[0] = -1;
+  close(fd[0]);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return {res[0], res[1]};
+}
+
+// The whole `somm bake SCENE -o F.somm` path (bakeCommand). One and two threads run interleaved, three times each:
+// `speedup_2t` is the best one-thread wall time over the best two-thread one; `bake_speedup_2t` the same for
+// bakeScene alone, from the same runs; the outputs must be byte-identical. `command_peak_MiB`: the whole command's
+// peak memory at two threads (commandPeakMiB), and `command_peak_over_masks_output` its ratio to masks + output (the
+// target is ≤ 2; the process's own baseline — shared libraries, about 8.6 MB for `somm --version` — is not in it).
 void BM_BakeCommand(benchmark::State& state, const char* rel) {
   const char* env = std::getenv("SOMM_FOLIAGE_DIR");
   const std::string dir = env && *env ? env : SOMM_FOLIAGE_DIR;
@@ -288,32 +382,12 @@ void BM_BakeCommand(benchmark::State& state, const char* rel) {
   };
   std::string error;
   auto once = [&](uint32_t threads, Run& run) {
-    tbb::global_control cap(tbb::global_control::max_allowed_parallelism, threads);
     const auto w0 = std::chrono::steady_clock::now();
-    auto scene = somm::loadScene(path);
-    if (!scene) return void(error = scene.error().message);
-    const auto b0 = std::chrono::steady_clock::now();
-    auto r = somm::bakeScene(*scene, options(level, threads));
-    const auto b1 = std::chrono::steady_clock::now();
-    if (!r) return void(error = r.error().message);
-    somm::SommFile f;
-    f.sourcePath = path;
-    f.toolVersion = "somm bench";
-    for (size_t g = 0; g < scene->geometries.size(); ++g) {
-      somm::GeometryInfo info;
-      info.name = scene->geometries[g].name;
-      info.material = scene->materials[scene->geometries[g].material].name;
-      info.triangleCount = scene->geometries[g].triangleCount();
-      info.minLevel = r->geometries[g].stats.minLevel;
-      info.maxLevel = r->geometries[g].stats.maxLevel;
-      f.geometries.push_back(std::move(info));
-    }
-    f.micromaps = std::move(r->micromaps);
-    f.encodings.assign(f.micromaps.arrays.size(), {});
-    if (somm::Status s = somm::writeSommFile(out, f); !s) return void(error = s.error().message);
+    auto r = bakeCommand(path, level, threads, out);
     const auto w1 = std::chrono::steady_clock::now();
+    if (!r) return void(error = r.error().message);
     run.wall = std::min(run.wall, std::chrono::duration<double>(w1 - w0).count());
-    run.bake = std::min(run.bake, std::chrono::duration<double>(b1 - b0).count());
+    run.bake = std::min(run.bake, r->bakeSeconds);
     std::ifstream in(out, std::ios::binary);
     std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     if (run.bytes.empty()) run.bytes = std::move(bytes);
@@ -325,6 +399,7 @@ void BM_BakeCommand(benchmark::State& state, const char* rel) {
       once(1, one);
       once(2, two);
     }
+  const auto [peak, base] = commandPeakMiB(path, level, 2, out);
   std::filesystem::remove(out);
   if (error.empty() && one.bytes != two.bytes) error = "the two-thread file differs from the one-thread file";
   if (!error.empty()) return state.SkipWithError(error.c_str());
@@ -332,6 +407,9 @@ void BM_BakeCommand(benchmark::State& state, const char* rel) {
   state.counters["wall_2t_s"] = two.wall;
   state.counters["speedup_2t"] = one.wall / two.wall;
   state.counters["bake_speedup_2t"] = one.bake / two.bake;
+  state.counters["command_peak_MiB"] = peak;
+  state.counters["masks_output_MiB"] = base;
+  state.counters["command_peak_over_masks_output"] = base > 0 && peak >= 0 ? peak / base : -1;
   state.SetLabel(std::string(rel) + " level " + std::to_string(level) + ": load + bake + write");
 }
 

@@ -27,14 +27,13 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     return 0;
   }
   const detail::RawImage& img = *r;
-  if (img.width == 0 || img.height == 0 || img.channels < 1 || img.channels > 4 ||
-      img.px.size() != size_t(img.width) * img.height * img.channels)
+  if (img.width == 0 || img.height == 0 || img.channels < 1 || img.channels > 4 || !img.samples)
     fuzz::fail("fuzz_image", "inconsistent decoded image");
   for (detail::AlphaChannel c : {detail::AlphaChannel::AlphaOrOne, detail::AlphaChannel::AlphaOrLuminance,
                                  detail::AlphaChannel::Red, detail::AlphaChannel::Luminance}) {
     const AlphaTexture t = detail::toAlphaTexture(img, c, 0.75f, c == detail::AlphaChannel::Red);
     if (t.width != img.width || t.height != img.height || !t.consistent() ||
-        t.texelCount() != img.px.size() / img.channels)
+        t.texelCount() != img.sampleCount() / img.channels)
       fuzz::fail("fuzz_image", "alpha texture size");
     for (size_t i = 0; i < t.texelCount(); ++i)
       if (!(t.texel(i) >= 0.0f && t.texel(i) <= 1.0f)) fuzz::fail("fuzz_image", "alpha outside [0, 1]");

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <cstring>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <type_traits>
 #include <utility>
@@ -258,7 +259,7 @@ class AlphaMask {
 
   // Bytes held by the mask (its tables), for memory accounting.
   size_t memoryBytes() const noexcept {
-    return sat_.size() * sizeof(uint32_t) + bits_.size() * sizeof(uint64_t) + lut_.size() * sizeof(float);
+    return sat_.size() * sizeof(uint32_t) + bits_.size() * sizeof(uint64_t) + lutBytes_;
   }
 
  private:
@@ -268,7 +269,11 @@ class AlphaMask {
   uint32_t bpp_ = 4;
   Kind kind_ = Kind::F32;
   float scale_ = 1.0f;
-  std::vector<float> lut_;  // 8/16-bit: value → alpha
+  size_t lutBytes_ =
+      0;  // bytes of a table made for this mask alone (a scaled view); shared tables are not counted
+  const float* lut_ = nullptr;  // 8/16-bit: value → alpha (256 / 65536 entries of lutTable_)
+  std::shared_ptr<const std::vector<float>>
+      lutTable_;  // shared with the texture (or AlphaTexture::table), not copied
   uint32_t w_ = 0, h_ = 0;
   Sampler sampler_;
   float cutoff_ = 0.5f;

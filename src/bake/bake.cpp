@@ -1199,6 +1199,8 @@ Status bakePass(const CoreInputs& ci, const std::vector<std::vector<uint8_t>>& l
     return makeError(ErrorCode::Cancelled, "bake cancelled");
   emit(UINT32_MAX & ~kSpecialBit);
   assert(cursor == refs.size());
+  // The ring's maps (up to 64 MiB) are not needed any more: free them before finish() makes the data contiguous.
+  std::vector<Batch>().swap(ring);
   OmmArray array = builder.finish();
   finishScene(in, o, std::move(array), out);
   return Ok{};
@@ -1355,7 +1357,10 @@ AlphaMask::AlphaMask(const AlphaTexture& texture, const Sampler& sampler, float 
       kind_ = Kind::F32;
       break;
   }
-  if (kind_ != Kind::F32) lut_ = *texture.lut;
+  if (kind_ != Kind::F32) {
+    lutTable_ = texture.lut;
+    lut_ = lutTable_->data();
+  }
   pitch_ = size_t(w_) * bpp_;
   build();
 }
@@ -1371,19 +1376,23 @@ AlphaMask::AlphaMask(const TextureView& t, const Sampler& sampler, float cutoff,
     case TexelFormat::RGBA8:
       kind_ = Kind::U8;
       base_ = data + t.alphaChannel;
-      lut_ = *AlphaTexture::table(AlphaStorage::UInt8, alphaScale);
+      lutTable_ = AlphaTexture::table(AlphaStorage::UInt8, alphaScale);
       break;
     case TexelFormat::R16:
     case TexelFormat::RGBA16:
       kind_ = Kind::U16;
       base_ = data + 2 * size_t(t.alphaChannel);
-      lut_ = *AlphaTexture::table(AlphaStorage::UInt16, alphaScale);
+      lutTable_ = AlphaTexture::table(AlphaStorage::UInt16, alphaScale);
       break;
     case TexelFormat::R32F:
       kind_ = Kind::F32;
       base_ = data;
       scale_ = alphaScale;
       break;
+  }
+  if (lutTable_) {
+    lut_ = lutTable_->data();
+    if (alphaScale != 1.0f) lutBytes_ = lutTable_->size() * sizeof(float);  // made for this view
   }
   build();
 }

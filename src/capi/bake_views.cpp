@@ -54,10 +54,9 @@ uint32_t channels(int32_t f) {
   }
 }
 
-// Alpha as the scene loaders compute it (src/scene/image_io.cpp): unorm v / (2^bits − 1) in double, then float.
-// Checks a texture view; with `fill`, also converts it to an AlphaTexture (otherwise returns null).
-Result<std::shared_ptr<const AlphaTexture>> convertTexture(const somm_texture& t, const std::string& what,
-                                                           bool fill) {
+// Checks a texture view: its format, alpha channel, size against width, height and pitch, and (R32F) that no texel
+// is NaN. The texels are not copied: bakeScene reads them in place through a TextureView.
+Status checkTexture(const somm_texture& t, const std::string& what) {
   const int32_t format = rawEnum(t.format);
   const uint32_t tb = texelBytes(format);
   if (tb == 0) return invalid(what + ".format " + std::to_string(format) + " is not a somm_texel_format");
@@ -80,53 +79,15 @@ Result<std::shared_ptr<const AlphaTexture>> convertTexture(const somm_texture& t
     return invalid(what + ".size " + std::to_string(t.size) + " is less than the " + std::to_string(need) +
                    " bytes the texture needs");
   const auto* base = static_cast<const unsigned char*>(t.data);
-  if (!fill) {
-    if (t.format == SOMM_TEXEL_R32F)
-      for (uint32_t y = 0; y < t.height; ++y)
-        for (uint32_t x = 0; x < t.width; ++x) {
-          float a;
-          std::memcpy(&a, base + size_t(y) * pitch + size_t(x) * 4, 4);
-          if (std::isnan(a))
-            return invalid(what + ": texel (" + std::to_string(x) + ", " + std::to_string(y) + ") is NaN");
-        }
-    return std::shared_ptr<const AlphaTexture>();
-  }
-  auto out = std::make_shared<AlphaTexture>();
-  out->width = t.width;
-  out->height = t.height;
-  out->alpha.resize(size_t(t.width) * t.height);
-  const uint32_t c = t.alpha_channel;
-  for (uint32_t y = 0; y < t.height; ++y) {
-    const unsigned char* row = base + size_t(y) * pitch;
-    float* dst = out->alpha.data() + size_t(y) * t.width;
-    for (uint32_t x = 0; x < t.width; ++x) {
-      const unsigned char* p = row + size_t(x) * tb;
-      float a = 0;
-      switch (t.format) {
-        case SOMM_TEXEL_R8:
-        case SOMM_TEXEL_RG8:
-        case SOMM_TEXEL_RGBA8:
-          a = float(double(p[c]) / 255.0);
-          break;
-        case SOMM_TEXEL_R16:
-        case SOMM_TEXEL_RGBA16: {
-          uint16_t v;
-          std::memcpy(&v, p + 2 * c, 2);
-          a = float(double(v) / 65535.0);
-          break;
-        }
-        case SOMM_TEXEL_R32F: {
-          std::memcpy(&a, p, 4);
-          if (std::isnan(a))
-            return invalid(what + ": texel (" + std::to_string(x) + ", " + std::to_string(y) + ") is NaN");
-          a = std::clamp(a, 0.0f, 1.0f);
-          break;
-        }
+  if (t.format == SOMM_TEXEL_R32F)
+    for (uint32_t y = 0; y < t.height; ++y)
+      for (uint32_t x = 0; x < t.width; ++x) {
+        float a;
+        std::memcpy(&a, base + size_t(y) * pitch + size_t(x) * 4, 4);
+        if (std::isnan(a))
+          return invalid(what + ": texel (" + std::to_string(x) + ", " + std::to_string(y) + ") is NaN");
       }
-      dst[x] = a;
-    }
-  }
-  return std::shared_ptr<const AlphaTexture>(std::move(out));
+  return Ok{};
 }
 
 Result<Sampler> convertSampler(const somm_sampler& s, const std::string& what) {
@@ -168,9 +129,7 @@ Result<Material> convertMaterial(const somm_material& m, uint32_t index, const s
   out.sampler = *smp;
   if (out.alphaMode == AlphaMode::Opaque) return out;
   if (m.texture) {
-    auto tex = convertTexture(*m.texture, what + ".texture", false);
-    if (!tex) return tex.error();
-    out.alpha = *tex;
+    if (Status st = checkTexture(*m.texture, what + ".texture"); !st) return st.error();
   } else {
     if (!(m.constant_alpha >= 0.0f && m.constant_alpha <= 1.0f))
       return invalid(what + ".constant_alpha must be a number in [0, 1]");

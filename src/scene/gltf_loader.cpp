@@ -391,6 +391,13 @@ Result<std::shared_ptr<const RawImage>> GltfLoader::image(int index, const std::
 Status GltfLoader::loadMaterials() {
   std::map<std::pair<int, float>, std::shared_ptr<const AlphaTexture>> alphaCache;
   std::map<int, std::shared_ptr<const ColorImage>> colorCache;
+  // The last material that takes each image: its decoded image is dropped after that material (only the conversions
+  // stay), so few decoded images are alive at a time.
+  std::map<int, size_t> lastUse;
+  for (size_t i = 0; i < model_.materials.size(); ++i) {
+    const int t = model_.materials[i].pbrMetallicRoughness.baseColorTexture.index;
+    if (t >= 0 && size_t(t) < model_.textures.size()) lastUse[model_.textures[size_t(t)].source] = i;
+  }
   for (size_t i = 0; i < model_.materials.size(); ++i) {
     const tinygltf::Material& gm = model_.materials[i];
     Material m;
@@ -507,6 +514,10 @@ Status GltfLoader::loadMaterials() {
     }
     scene_.materials.push_back(std::move(m));
     matInfo_.push_back(info);
+    for (auto it = images_.begin(); it != images_.end();) {
+      const auto last = lastUse.find(it->first);
+      it = last == lastUse.end() || last->second <= i ? images_.erase(it) : std::next(it);
+    }
   }
   images_.clear();  // decoded images are no longer needed
   return Ok{};

@@ -26,10 +26,6 @@ constexpr uint64_t kMaxSamples = uint64_t(1) << 30;
 constexpr uint64_t kFreeSamples = uint64_t(1) << 24;
 constexpr uint64_t kMaxExpansion = 1032;
 
-struct StbiFree {
-  void operator()(void* p) const noexcept { stbi_image_free(p); }
-};
-
 // PNG: every chunk must fit in the bytes present. stb_image grows its IDAT buffer to a chunk's declared length
 // before reading it, so a 100-byte file declaring a 2 GB IDAT chunk would make it allocate 2 GB.
 std::string pngChunkProblem(const uint8_t* p, size_t n) {
@@ -174,7 +170,8 @@ Result<RawImage> decodeImage(const uint8_t* data, size_t size, const Limits& lim
     return makeError(ErrorCode::LimitExceeded, "image of " + std::to_string(w) + "x" + std::to_string(h) +
                                                    " texels exceeds " +
                                                    limitHint("image-pixels", limits.imagePixels));
-  // What decoding costs: the decoder's buffer, our 16-bit copy and the alpha/colour textures made from it.
+  // What decoding may cost, charged conservatively: the decoder's buffer (kept as the RawImage) and the alpha/colour
+  // textures made from it.
   const uint64_t cost = uint64_t(w) * uint64_t(h) * (uint64_t(comp) * 3 + 8);
   if (decodedBytes) {
     if (*decodedBytes + cost > limits.decodedImageBytes)
@@ -209,26 +206,15 @@ Result<RawImage> decodeImage(const uint8_t* data, size_t size, const Limits& lim
   RawImage img;
   const bool is16 = stbi_is_16_bit_from_memory(data, n2) != 0;
   int w2 = 0, h2 = 0, c2 = 0;
-  if (is16) {
-    std::unique_ptr<stbi_us, StbiFree> p(stbi_load_16_from_memory(data, n2, &w2, &h2, &c2, 0));
-    if (!p) {
-      const char* why = stbi_failure_reason();
-      return makeError(ErrorCode::CorruptFile, "cannot decode image (" + oneLine(why ? why : "?") + ")");
-    }
-    img.width = uint32_t(w2), img.height = uint32_t(h2), img.channels = uint32_t(c2), img.sixteenBit = true;
-    img.px.assign(p.get(), p.get() + size_t(w2) * size_t(h2) * size_t(c2));
-  } else {
-    std::unique_ptr<stbi_uc, StbiFree> p(stbi_load_from_memory(data, n2, &w2, &h2, &c2, 0));
-    if (!p) {
-      const char* why = stbi_failure_reason();
-      return makeError(ErrorCode::CorruptFile, "cannot decode image (" + oneLine(why ? why : "?") + ")");
-    }
-    img.width = uint32_t(w2), img.height = uint32_t(h2), img.channels = uint32_t(c2);
-    const size_t count = size_t(w2) * size_t(h2) * size_t(c2);
-    img.px.resize(count);
-    const stbi_uc* s = p.get();
-    for (size_t i = 0; i < count; ++i) img.px[i] = uint16_t(s[i] * 257u);
+  // The decoder's buffer is kept as it is (no widened copy) and freed with stbi_image_free.
+  void* p = is16 ? static_cast<void*>(stbi_load_16_from_memory(data, n2, &w2, &h2, &c2, 0))
+                 : static_cast<void*>(stbi_load_from_memory(data, n2, &w2, &h2, &c2, 0));
+  if (!p) {
+    const char* why = stbi_failure_reason();
+    return makeError(ErrorCode::CorruptFile, "cannot decode image (" + oneLine(why ? why : "?") + ")");
   }
+  img.samples = std::shared_ptr<const void>(p, [](const void* q) { stbi_image_free(const_cast<void*>(q)); });
+  img.width = uint32_t(w2), img.height = uint32_t(h2), img.channels = uint32_t(c2), img.sixteenBit = is16;
   if (img.width != uint32_t(w) || img.height != uint32_t(h) || img.channels < 1 || img.channels > 4)
     return makeError(ErrorCode::CorruptFile, "image decoder returned inconsistent dimensions");
   return img;
@@ -275,27 +261,28 @@ AlphaTexture toAlphaTexture(const RawImage& img, AlphaChannel channel, float fac
       break;
   }
   if (source >= 0) {
-    // At the image's precision: the table gives exactly the float the conversion below would. 8-bit images were
-    // widened as v · 257; a value that is not such a multiple (a hand-made RawImage) keeps the 16 bits.
-    auto value = [&](uint32_t x, uint32_t y) -> uint16_t {
-      const uint32_t sy = flipRows ? img.height - 1 - y : y;
-      return source == int(nc) ? uint16_t(65535) : img.px[(size_t(sy) * img.width + x) * nc + size_t(source)];
-    };
+    // At the image's precision (8-bit samples stay 8-bit): the table gives exactly the float the conversion below
+    // would. source == nc: the constant 1 (the largest value).
     const size_t n = size_t(img.width) * img.height;
-    bool eight = !img.sixteenBit;
-    if (eight) {
-      std::vector<uint8_t> v8(n);
-      for (uint32_t y = 0; y < img.height && eight; ++y)
-        for (uint32_t x = 0; x < img.width; ++x) {
-          const uint16_t v = value(x, y);
-          eight &= v % 257u == 0;
-          v8[size_t(y) * img.width + x] = uint8_t(v / 257u);
+    auto fill = [&](auto* out, auto one, const auto* in) {
+      for (uint32_t y = 0; y < img.height; ++y) {
+        const uint32_t sy = flipRows ? img.height - 1 - y : y;
+        auto* row = out + size_t(y) * img.width;
+        if (source == int(nc)) {
+          std::fill(row, row + img.width, one);
+          continue;
         }
-      if (eight) return AlphaTexture::fromUInt8(img.width, img.height, std::move(v8), factor);
+        const auto* src = in + size_t(sy) * img.width * nc + size_t(source);
+        for (uint32_t x = 0; x < img.width; ++x) row[x] = src[size_t(x) * nc];
+      }
+    };
+    if (!img.sixteenBit) {
+      std::vector<uint8_t> v8(n);
+      fill(v8.data(), uint8_t(255), img.px8());
+      return AlphaTexture::fromUInt8(img.width, img.height, std::move(v8), factor);
     }
     std::vector<uint16_t> v16(n);
-    for (uint32_t y = 0; y < img.height; ++y)
-      for (uint32_t x = 0; x < img.width; ++x) v16[size_t(y) * img.width + x] = value(x, y);
+    fill(v16.data(), uint16_t(65535), img.px16());
     return AlphaTexture::fromUInt16(img.width, img.height, std::move(v16), factor);
   }
   AlphaTexture t;
@@ -305,7 +292,8 @@ AlphaTexture toAlphaTexture(const RawImage& img, AlphaChannel channel, float fac
   for (uint32_t y = 0; y < img.height; ++y) {
     const uint32_t sy = flipRows ? img.height - 1 - y : y;
     for (uint32_t x = 0; x < img.width; ++x) {
-      const uint16_t* p = &img.px[(size_t(sy) * img.width + x) * nc];
+      uint16_t p[4] = {0, 0, 0, 0};  // the texel's samples widened to 16 bits
+      for (uint32_t c = 0; c < nc; ++c) p[c] = img.at(x, sy, c);
       double v = 1.0;  // in [0, 65535] units below, except for this default
       auto lum = [&]() -> double {
         if (!colour) return p[0];
@@ -350,7 +338,8 @@ ColorImage toColorImage(const RawImage& img, bool flipRows) {
   for (uint32_t y = 0; y < img.height; ++y) {
     const uint32_t sy = flipRows ? img.height - 1 - y : y;
     for (uint32_t x = 0; x < img.width; ++x) {
-      const uint16_t* p = &img.px[(size_t(sy) * img.width + x) * nc];
+      uint16_t p[4] = {0, 0, 0, 0};  // the texel's samples widened to 16 bits
+      for (uint32_t c = 0; c < nc; ++c) p[c] = img.at(x, sy, c);
       uint8_t* o = &c.rgba[(size_t(y) * img.width + x) * 4];
       if (nc >= 3) {
         o[0] = to8(p[0]), o[1] = to8(p[1]), o[2] = to8(p[2]);

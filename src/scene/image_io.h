@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -14,14 +15,20 @@
 
 namespace somm::detail {
 
-// A decoded image, rows top to bottom as stored in the file, every channel widened to 16 bits (8-bit v →
-// v·257, so v/65535 is exactly v/255).
+// A decoded image, rows top to bottom as stored in the file, at the file's precision: the decoder's own buffer of
+// 8-bit samples (sixteenBit false) or 16-bit samples, not copied or widened. at() widens an 8-bit v to v·257, so
+// at()/65535 is exactly v/255.
 struct RawImage {
   uint32_t width = 0, height = 0, channels = 0;  // channels: 1 grey, 2 grey+alpha, 3 RGB, 4 RGBA
   bool sixteenBit = false;
-  std::vector<uint16_t> px;  // width * height * channels
+  std::shared_ptr<const void> samples;  // width * height * channels samples of 1 (8-bit) or 2 bytes
+  size_t sampleCount() const noexcept { return size_t(width) * height * channels; }
+  const uint8_t* px8() const noexcept { return static_cast<const uint8_t*>(samples.get()); }
+  const uint16_t* px16() const noexcept { return static_cast<const uint16_t*>(samples.get()); }
+  // Sample i (of sampleCount()) widened to 16 bits.
+  uint16_t sample(size_t i) const noexcept { return sixteenBit ? px16()[i] : uint16_t(px8()[i] * 257u); }
   uint16_t at(uint32_t x, uint32_t y, uint32_t c) const noexcept {
-    return px[(size_t(y) * width + x) * channels + c];
+    return sample((size_t(y) * width + x) * channels + c);
   }
   bool hasAlpha() const noexcept { return channels == 2 || channels == 4; }
 };

@@ -17,6 +17,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <sstream>
 #include <unordered_map>
 
@@ -95,6 +96,54 @@ class MtlReader : public tinyobj::MaterialReader {
   uint64_t cap_;
 };
 
+// The alpha channel map_d's -imfchan names (the default, and an unsupported value, are handled by the caller).
+AlphaChannel mapDChannel(char imfchan, bool& supported) {
+  supported = true;
+  switch (imfchan) {
+    case 'r':
+      return AlphaChannel::Red;
+    case 'g':
+      return AlphaChannel::Green;
+    case 'b':
+      return AlphaChannel::Blue;
+    case 'l':
+      return AlphaChannel::Luminance;
+    case 'm':
+      return AlphaChannel::AlphaOrLuminance;
+    default:
+      supported = false;
+      return AlphaChannel::Luminance;
+  }
+}
+
+// What the materials take from one texture file: alpha textures of some channels (AlphaOrOne: only when the image
+// has an alpha channel, as map_Kd's alpha), and the colour image.
+struct TextureNeeds {
+  std::set<AlphaChannel> channels;
+  bool color = false;
+};
+
+// One texture file converted to what the materials take from it; the decoded image itself is not kept.
+struct LoadedTexture {
+  bool hasAlpha = false;
+  std::map<AlphaChannel, std::shared_ptr<const AlphaTexture>> alpha;
+  std::shared_ptr<const ColorImage> color;
+};
+
+// Reads and decodes one texture file and converts it at once (the decoded image is freed on return).
+Result<std::shared_ptr<const LoadedTexture>> loadTexture(const std::string& path, const TextureNeeds& needs) {
+  Result<RawImage> raw = readImageFile(path);
+  if (!raw.ok()) return raw.error();
+  const RawImage& img = raw.value();
+  auto t = std::make_shared<LoadedTexture>();
+  t->hasAlpha = img.hasAlpha();
+  for (AlphaChannel ch : needs.channels)
+    if (ch != AlphaChannel::AlphaOrOne || img.hasAlpha())
+      t->alpha[ch] = std::make_shared<const AlphaTexture>(toAlphaTexture(img, ch, 1.0f, true));
+  if (needs.color) t->color = std::make_shared<const ColorImage>(toColorImage(img, true));
+  return std::shared_ptr<const LoadedTexture>(std::move(t));
+}
+
 class ObjLoader {
  public:
   ObjLoader(std::string path, const LoadOptions& opts) : path_(std::move(path)), opts_(opts) {}
@@ -102,73 +151,29 @@ class ObjLoader {
 
  private:
   Error fail(ErrorCode code, const std::string& what) const { return makeError(code, path_ + ": " + what); }
-  Result<std::shared_ptr<const RawImage>> image(const std::string& texname, const std::string& material,
-                                                std::string& resolved);
+  Result<std::shared_ptr<const LoadedTexture>> image(const std::string& texname, const std::string& material,
+                                                     std::string& resolved);
   Status material(const tinyobj::material_t& tm, Material& m);
 
   std::string path_;
   LoadOptions opts_;
   std::filesystem::path dir_;
   Scene scene_;
-  std::map<std::string, std::shared_ptr<const RawImage>> images_;
-  // Every texture file the materials name, decoded in parallel before the materials are read in order; image()
-  // takes its result from here (the same result a read in order would give).
-  std::map<std::string, Result<RawImage>> decoded_;
+  // Converted textures, shared by every material that uses the same file: loaded once per path.
+  std::map<std::string, std::shared_ptr<const LoadedTexture>> images_;
+  // Every texture file the materials name, decoded and converted in parallel before the materials are read in
+  // order (at most one decoded image per thread is alive at a time; only the conversions are kept); image() takes
+  // its result from here (the same result a read in order would give).
+  std::map<std::string, TextureNeeds> needs_;
+  std::map<std::string, Result<std::shared_ptr<const LoadedTexture>>> decoded_;
   void prefetchImages(const std::vector<tinyobj::material_t>& mats);
-  Result<RawImage> readImage(const std::string& path) {
-    const auto it = decoded_.find(path);
-    if (it == decoded_.end()) return readImageFile(path);
-    Result<RawImage> r = std::move(it->second);
-    decoded_.erase(it);
-    return r;
-  }
-  // Converted images, shared by every material that uses the same file (and channel): loaded once per path.
-  std::map<std::pair<std::string, int>, std::shared_ptr<const AlphaTexture>> alphas_;
-  std::map<std::string, std::shared_ptr<const ColorImage>> colors_;
-  std::shared_ptr<const AlphaTexture> alphaOf(const std::string& path, const RawImage& img, AlphaChannel ch) {
-    auto& a = alphas_[{path, int(ch)}];
-    if (!a) a = std::make_shared<const AlphaTexture>(toAlphaTexture(img, ch, 1.0f, true));
-    return a;
-  }
-};
-
-Result<std::shared_ptr<const RawImage>> ObjLoader::image(const std::string& texname,
-                                                         const std::string& material, std::string& resolved) {
-  std::filesystem::path p(texname);
-  if (p.is_relative()) p = dir_ / p;
-  resolved = p.string();
-  auto it = images_.find(resolved);
-  if (it != images_.end()) return it->second;
-  Result<RawImage> raw = readImage(resolved);
-  if (!raw.ok() && raw.error().code == ErrorCode::IoError && texname.find('\\') != std::string::npos) {
-    std::string alt = texname;
-    for (char& c : alt)
-      if (c == '\\') c = '/';
-    std::filesystem::path q(alt);
-    if (q.is_relative()) q = dir_ / q;
-    Result<RawImage> raw2 = readImage(q.string());
-    if (raw2.ok()) {
-      raw = std::move(raw2);
-      resolved = q.string();
-    }
-  }
-  if (!raw.ok())
-    return fail(raw.error().code,
-                "material '" + material + "': texture '" + resolved + "': " + raw.error().message);
-  auto sp = std::make_shared<const RawImage>(std::move(raw.value()));
-  images_[resolved] = sp;
-  scene_.inputFiles.push_back(resolved);
-  return sp;
-}
-
-void ObjLoader::prefetchImages(const std::vector<tinyobj::material_t>& mats) {
-  std::vector<std::string> paths;
-  auto add = [&](const std::string& texname) {
-    if (texname.empty()) return;
+  // The paths image() tries for a texture name: relative to the OBJ's folder, then with backslashes as separators.
+  std::vector<std::string> candidates(const std::string& texname) const {
+    std::vector<std::string> paths;
     std::filesystem::path p(texname);
     if (p.is_relative()) p = dir_ / p;
     paths.push_back(p.string());
-    if (texname.find('\\') != std::string::npos) {  // image()'s fallback: backslashes as separators
+    if (texname.find('\\') != std::string::npos) {
       std::string alt = texname;
       for (char& c : alt)
         if (c == '\\') c = '/';
@@ -176,19 +181,76 @@ void ObjLoader::prefetchImages(const std::vector<tinyobj::material_t>& mats) {
       if (q.is_relative()) q = dir_ / q;
       paths.push_back(q.string());
     }
+    return paths;
+  }
+  Result<std::shared_ptr<const LoadedTexture>> readImage(const std::string& path) {
+    const auto it = decoded_.find(path);
+    if (it == decoded_.end()) return loadTexture(path, needs_[path]);
+    return it->second;
+  }
+  // Channel ch of a converted texture file (prefetchImages converted every channel a material takes; should one be
+  // missing, the file is decoded again for it).
+  Result<std::shared_ptr<const AlphaTexture>> alphaOf(const std::string& path, const LoadedTexture& tex,
+                                                      AlphaChannel ch) {
+    if (auto it = tex.alpha.find(ch); it != tex.alpha.end()) return it->second;
+    TextureNeeds n;
+    n.channels.insert(ch);
+    auto again = loadTexture(path, n);
+    if (!again.ok()) return fail(again.error().code, "texture '" + path + "': " + again.error().message);
+    auto it = again.value()->alpha.find(ch);
+    if (it == again.value()->alpha.end())
+      return fail(ErrorCode::CorruptFile, "texture '" + path + "' has no alpha");
+    return it->second;
+  }
+};
+
+Result<std::shared_ptr<const LoadedTexture>> ObjLoader::image(const std::string& texname,
+                                                              const std::string& material,
+                                                              std::string& resolved) {
+  const std::vector<std::string> paths = candidates(texname);
+  resolved = paths[0];
+  auto it = images_.find(resolved);
+  if (it != images_.end()) return it->second;
+  Result<std::shared_ptr<const LoadedTexture>> raw = readImage(resolved);
+  if (!raw.ok() && raw.error().code == ErrorCode::IoError && paths.size() > 1) {
+    Result<std::shared_ptr<const LoadedTexture>> raw2 = readImage(paths[1]);
+    if (raw2.ok()) {
+      raw = std::move(raw2);
+      resolved = paths[1];
+    }
+  }
+  if (!raw.ok())
+    return fail(raw.error().code,
+                "material '" + material + "': texture '" + resolved + "': " + raw.error().message);
+  images_[resolved] = raw.value();
+  scene_.inputFiles.push_back(resolved);
+  return raw.value();
+}
+
+void ObjLoader::prefetchImages(const std::vector<tinyobj::material_t>& mats) {
+  auto add = [&](const std::string& texname, bool color, std::optional<AlphaChannel> channel) {
+    if (texname.empty()) return;
+    for (const std::string& path : candidates(texname)) {
+      TextureNeeds& n = needs_[path];
+      n.color |= color;
+      if (channel) n.channels.insert(*channel);
+    }
   };
   for (const tinyobj::material_t& tm : mats) {
-    add(tm.diffuse_texname);
-    add(tm.alpha_texname);
+    // As material() takes them: map_Kd's colour, and its alpha when there is no map_d; map_d's channel.
+    add(tm.diffuse_texname, opts_.loadColor,
+        tm.alpha_texname.empty() ? std::optional<AlphaChannel>(AlphaChannel::AlphaOrOne) : std::nullopt);
+    bool supported = true;
+    add(tm.alpha_texname, false, mapDChannel(tm.alpha_texopt.imfchan, supported));
   }
-  std::sort(paths.begin(), paths.end());
-  paths.erase(std::unique(paths.begin(), paths.end()), paths.end());
-  if (paths.size() < 2) return;
-  std::vector<std::optional<Result<RawImage>>> results(paths.size());
+  std::vector<std::pair<const std::string*, const TextureNeeds*>> paths;
+  for (const auto& [path, n] : needs_) paths.emplace_back(&path, &n);
+  std::vector<std::optional<Result<std::shared_ptr<const LoadedTexture>>>> results(paths.size());
   tbb::parallel_for(
-      size_t(0), paths.size(), [&](size_t i) { results[i].emplace(readImageFile(paths[i])); },
+      size_t(0), paths.size(),
+      [&](size_t i) { results[i].emplace(loadTexture(*paths[i].first, *paths[i].second)); },
       tbb::simple_partitioner());
-  for (size_t i = 0; i < paths.size(); ++i) decoded_.emplace(paths[i], std::move(*results[i]));
+  for (size_t i = 0; i < paths.size(); ++i) decoded_.emplace(*paths[i].first, std::move(*results[i]));
 }
 
 // Image formats that cannot store an alpha channel (by extension): a missing one cannot change the alpha test.
@@ -208,17 +270,13 @@ Status ObjLoader::material(const tinyobj::material_t& tm, Material& m) {
     if (o.origin_offset[0] != 0 || o.origin_offset[1] != 0 || o.scale[0] != 1 || o.scale[1] != 1)
       scene_.warnings.push_back("material '" + m.name + "': " + what + " -o/-s options are ignored");
   };
-  std::shared_ptr<const RawImage> kd;
+  std::shared_ptr<const LoadedTexture> kd;
   std::string kdPath;
   if (!tm.diffuse_texname.empty()) {
     auto r = image(tm.diffuse_texname, m.name, kdPath);
     if (r.ok()) {
       kd = r.value();
-      if (opts_.loadColor) {
-        auto& c = colors_[kdPath];
-        if (!c) c = std::make_shared<const ColorImage>(toColorImage(*kd, true));
-        m.baseColor = c;
-      }
+      if (opts_.loadColor) m.baseColor = kd->color;
     } else if (!cannotCarryAlpha(kdPath) || std::filesystem::exists(kdPath)) {
       return r.error();
     } else {
@@ -232,36 +290,23 @@ Status ObjLoader::material(const tinyobj::material_t& tm, Material& m) {
     std::string dPath;
     auto r = image(tm.alpha_texname, m.name, dPath);
     if (!r.ok()) return r.error();
-    AlphaChannel ch = AlphaChannel::AlphaOrLuminance;
-    switch (tm.alpha_texopt.imfchan) {
-      case 'r':
-        ch = AlphaChannel::Red;
-        break;
-      case 'g':
-        ch = AlphaChannel::Green;
-        break;
-      case 'b':
-        ch = AlphaChannel::Blue;
-        break;
-      case 'l':
-        ch = AlphaChannel::Luminance;
-        break;
-      case 'm':
-        ch = AlphaChannel::AlphaOrLuminance;
-        break;
-      default:
-        scene_.warnings.push_back("material '" + m.name + "': map_d -imfchan '" +
-                                  std::string(1, tm.alpha_texopt.imfchan) + "' unsupported, luminance used");
-        ch = AlphaChannel::Luminance;
-    }
-    m.alpha = alphaOf(dPath, *r.value(), ch);
+    bool supported = true;
+    const AlphaChannel ch = mapDChannel(tm.alpha_texopt.imfchan, supported);
+    if (!supported)
+      scene_.warnings.push_back("material '" + m.name + "': map_d -imfchan '" +
+                                std::string(1, tm.alpha_texopt.imfchan) + "' unsupported, luminance used");
+    auto a = alphaOf(dPath, *r.value(), ch);
+    if (!a.ok()) return a.error();
+    m.alpha = a.value();
     m.alphaSource = dPath;
     const Wrap w = tm.alpha_texopt.clamp ? Wrap::ClampToEdge : Wrap::Repeat;
     m.sampler.wrapS = m.sampler.wrapT = w;
     m.alphaMode = AlphaMode::Mask;
     checkOptions(tm.alpha_texopt, "map_d");
-  } else if (kd && kd->hasAlpha()) {
-    m.alpha = alphaOf(kdPath, *kd, AlphaChannel::AlphaOrOne);
+  } else if (kd && kd->hasAlpha) {
+    auto a = alphaOf(kdPath, *kd, AlphaChannel::AlphaOrOne);
+    if (!a.ok()) return a.error();
+    m.alpha = a.value();
     m.alphaSource = kdPath;
     const Wrap w = tm.diffuse_texopt.clamp ? Wrap::ClampToEdge : Wrap::Repeat;
     m.sampler.wrapS = m.sampler.wrapT = w;

@@ -647,7 +647,7 @@ TEST(BadSceneRound2, ImagePixelLimitAndPaletteIndices) {
     ASSERT_EQ(p->width, 4u);
     ASSERT_EQ(p->channels, 3u);
     const uint16_t expect[12] = {65535, 0, 0, 0, 65535, 0, 0, 0, 0, 0, 0, 0};
-    for (int i = 0; i < 12; ++i) EXPECT_EQ(p->px[size_t(i)], expect[i]) << "sample " << i;
+    for (int i = 0; i < 12; ++i) EXPECT_EQ(p->sample(size_t(i)), expect[i]) << "sample " << i;
   }
 }
 

@@ -252,6 +252,87 @@ TEST(Obj, EightBitAlphaStaysEightBit) {
   EXPECT_EQ(c->materials[0].alpha->storage, somm::AlphaStorage::Float32);
 }
 
+// Every kind of image the loaders meet gives the alpha the decoder stores, at the image's precision: 8-bit RGBA,
+// grey+alpha and palette+tRNS stay 8-bit, 16-bit RGBA and grey+alpha stay 16-bit (rows flipped for OBJ). The oracle
+// is stb_image's own decode of the file. A JPEG (no alpha channel) as map_Kd leaves the material opaque.
+TEST(Obj, ImageKindsKeepTheDecodersAlpha) {
+  TempDir dir;
+  const uint32_t w = 3, h = 2;
+  std::vector<uint8_t> rgba8, ga8;
+  std::vector<uint16_t> rgba16, ga16;
+  for (uint32_t i = 0; i < w * h; ++i) {
+    rgba8.insert(rgba8.end(), {uint8_t(40 * i), uint8_t(7 + i), uint8_t(200 - i), uint8_t(51 * i + 1)});
+    ga8.insert(ga8.end(), {uint8_t(30 * i), uint8_t(250 - 37 * i)});
+    rgba16.insert(rgba16.end(), {uint16_t(1000 * i), 7, 9, uint16_t(13107 * i + 257 * i + 1)});
+    ga16.insert(ga16.end(), {uint16_t(999 * i), uint16_t(65535 - 12345 * i)});
+  }
+  scenetest::writeBytes(dir.file("rgba8.png"), scenetest::encodePng8(int(w), int(h), 4, rgba8));
+  scenetest::writeBytes(dir.file("ga8.png"), scenetest::encodePng8(int(w), int(h), 2, ga8));
+  scenetest::writeBytes(dir.file("rgba16.png"), scenetest::encodePng16(w, h, 4, rgba16));
+  scenetest::writeBytes(dir.file("ga16.png"), scenetest::encodePng16(w, h, 2, ga16));
+  // Palette of 3 entries with tRNS alphas 0, 128, 255; rows of indices (filter byte 0 first).
+  scenetest::writeBytes(
+      dir.file("pal.png"),
+      scenetest::encodePngRaw(w, h, 8, 3, {0, 0, 1, 2, 0, 2, 2, 1},
+                              {{"PLTE", {255, 0, 0, 0, 255, 0, 0, 0, 255}}, {"tRNS", {0, 128, 255}}}));
+  struct Case {
+    const char* file;
+    somm::AlphaStorage storage;
+  };
+  for (const Case& c :
+       {Case{"rgba8.png", somm::AlphaStorage::UInt8}, Case{"ga8.png", somm::AlphaStorage::UInt8},
+        Case{"pal.png", somm::AlphaStorage::UInt8}, Case{"rgba16.png", somm::AlphaStorage::UInt16},
+        Case{"ga16.png", somm::AlphaStorage::UInt16}}) {
+    SCOPED_TRACE(c.file);
+    const std::string path = dir.file(c.file);
+    int sw = 0, sh = 0, comp = 0;
+    const bool sixteen = c.storage == somm::AlphaStorage::UInt16;
+    // stb's alpha of texture texel (x, y) = image row h - 1 - y (the last channel), decoded at the file's precision.
+    void* px = sixteen ? static_cast<void*>(stbi_load_16(path.c_str(), &sw, &sh, &comp, 0))
+                       : static_cast<void*>(stbi_load(path.c_str(), &sw, &sh, &comp, 0));
+    ASSERT_TRUE(px);
+    std::vector<uint16_t> expect;
+    for (uint32_t y = 0; y < h; ++y)
+      for (uint32_t x = 0; x < w; ++x) {
+        const size_t i = ((h - 1 - y) * w + x) * uint32_t(comp) + uint32_t(comp) - 1;
+        expect.push_back(sixteen ? static_cast<const uint16_t*>(px)[i] : static_cast<const uint8_t*>(px)[i]);
+      }
+    stbi_image_free(px);
+    ASSERT_EQ(sw, int(w));
+    ASSERT_EQ(sh, int(h));
+    ASSERT_TRUE(comp == 2 || comp == 4) << comp;
+    for (const char* role : {"map_Kd ", "map_d "}) {
+      auto r = loadQuad(dir, role + std::string(c.file) + "\n");
+      ASSERT_TRUE(r.ok()) << r.error().message;
+      const somm::Material& m = r->materials[0];
+      EXPECT_EQ(m.alphaMode, somm::AlphaMode::Mask);
+      ASSERT_TRUE(m.alpha);
+      const somm::AlphaTexture& a = *m.alpha;
+      EXPECT_EQ(a.storage, c.storage);
+      ASSERT_TRUE(a.consistent());
+      for (uint32_t i = 0; i < w * h; ++i) {
+        EXPECT_EQ(sixteen ? uint32_t(a.alpha16[i]) : uint32_t(a.alpha8[i]), expect[i]) << i;
+        EXPECT_EQ(a.texel(i), float(double(expect[i]) / (sixteen ? 65535.0 : 255.0))) << i;
+      }
+    }
+  }
+  // The palette's tRNS alphas exactly (texture row 0 = image row 1: indices 2, 2, 1; row 1: 0, 1, 2).
+  auto p = loadQuad(dir, "map_Kd pal.png\n");
+  ASSERT_TRUE(p.ok()) << p.error().message;
+  EXPECT_EQ(p->materials[0].alpha->alpha8, (std::vector<uint8_t>{255, 255, 128, 0, 128, 255}));
+  ASSERT_TRUE(p->materials[0].baseColor);
+  EXPECT_EQ(p->materials[0].baseColor->rgba[4 * 2 + 1], 255);  // texel (2, 0): index 1, green
+  // A JPEG has no alpha channel: as map_Kd the material stays opaque, with its colour.
+  std::vector<uint8_t> rgb(8 * 8 * 3, 90);
+  ASSERT_TRUE(stbi_write_jpg(dir.file("c.jpg").c_str(), 8, 8, 3, rgb.data(), 95));
+  auto j = loadQuad(dir, "map_Kd c.jpg\n");
+  ASSERT_TRUE(j.ok()) << j.error().message;
+  EXPECT_EQ(j->materials[0].alphaMode, somm::AlphaMode::Opaque);
+  EXPECT_FALSE(j->materials[0].alpha);
+  ASSERT_TRUE(j->materials[0].baseColor);
+  EXPECT_EQ(j->materials[0].baseColor->rgba[3], 255);
+}
+
 TEST(Obj, ImageFormats) {
   TempDir dir;
   // 8×4 image, alpha = 255 on the left half, 0 on the right; colour luminance the same.

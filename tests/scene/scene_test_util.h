@@ -7,12 +7,14 @@
 #include <stb_image_write.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace scenetest {
@@ -70,18 +72,11 @@ inline uint32_t crc32(const uint8_t* p, size_t n, uint32_t crc = 0) {
   return ~crc;
 }
 
-// 16-bit PNG (comp 1 grey, 2 grey+alpha, 3 RGB, 4 RGBA), uncompressed deflate blocks.
-inline std::vector<uint8_t> encodePng16(uint32_t w, uint32_t h, int comp, const std::vector<uint16_t>& px) {
-  static const uint8_t colorType[5] = {0, 0, 4, 2, 6};
-  std::vector<uint8_t> raw;
-  for (uint32_t y = 0; y < h; ++y) {
-    raw.push_back(0);  // filter: none
-    for (uint32_t i = 0; i < w * uint32_t(comp); ++i) {
-      const uint16_t v = px[size_t(y) * w * comp + i];
-      raw.push_back(uint8_t(v >> 8));
-      raw.push_back(uint8_t(v & 0xFF));
-    }
-  }
+// A PNG of the given bit depth and colour type from raw scanlines (each row's filter byte included), with
+// uncompressed deflate blocks; `chunks` (e.g. PLTE, tRNS) go between IHDR and IDAT.
+inline std::vector<uint8_t> encodePngRaw(
+    uint32_t w, uint32_t h, uint8_t bitDepth, uint8_t colorType, const std::vector<uint8_t>& raw,
+    const std::vector<std::pair<std::string, std::vector<uint8_t>>>& chunks = {}) {
   std::vector<uint8_t> z = {0x78, 0x01};
   size_t pos = 0;
   do {
@@ -99,10 +94,10 @@ inline std::vector<uint8_t> encodePng16(uint32_t w, uint32_t h, int comp, const 
   for (int s = 24; s >= 0; s -= 8) z.push_back(uint8_t(adler >> s));
 
   std::vector<uint8_t> png = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
-  auto chunk = [&](const char* type, const std::vector<uint8_t>& data) {
+  auto chunk = [&](const std::string& type, const std::vector<uint8_t>& data) {
     const uint32_t n = uint32_t(data.size());
     for (int s = 24; s >= 0; s -= 8) png.push_back(uint8_t(n >> s));
-    std::vector<uint8_t> td(type, type + 4);
+    std::vector<uint8_t> td(type.begin(), type.end());
     td.insert(td.end(), data.begin(), data.end());
     png.insert(png.end(), td.begin(), td.end());
     const uint32_t crc = crc32(td.data(), td.size());
@@ -111,11 +106,27 @@ inline std::vector<uint8_t> encodePng16(uint32_t w, uint32_t h, int comp, const 
   std::vector<uint8_t> ihdr;
   for (uint32_t v : {w, h})
     for (int s = 24; s >= 0; s -= 8) ihdr.push_back(uint8_t(v >> s));
-  ihdr.insert(ihdr.end(), {16, colorType[comp], 0, 0, 0});
+  ihdr.insert(ihdr.end(), {bitDepth, colorType, 0, 0, 0});
   chunk("IHDR", ihdr);
+  for (const auto& [type, data] : chunks) chunk(type, data);
   chunk("IDAT", z);
   chunk("IEND", {});
   return png;
+}
+
+// 16-bit PNG (comp 1 grey, 2 grey+alpha, 3 RGB, 4 RGBA), uncompressed deflate blocks.
+inline std::vector<uint8_t> encodePng16(uint32_t w, uint32_t h, int comp, const std::vector<uint16_t>& px) {
+  static const uint8_t colorType[5] = {0, 0, 4, 2, 6};
+  std::vector<uint8_t> raw;
+  for (uint32_t y = 0; y < h; ++y) {
+    raw.push_back(0);  // filter: none
+    for (uint32_t i = 0; i < w * uint32_t(comp); ++i) {
+      const uint16_t v = px[size_t(y) * w * comp + i];
+      raw.push_back(uint8_t(v >> 8));
+      raw.push_back(uint8_t(v & 0xFF));
+    }
+  }
+  return encodePngRaw(w, h, 16, colorType[comp], raw);
 }
 
 inline std::vector<uint8_t> encodePng8(int w, int h, int comp, const std::vector<uint8_t>& px) {

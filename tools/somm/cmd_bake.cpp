@@ -2,6 +2,9 @@
 // somm bake SCENE -o OUT.somm [...]: conservative OMM baking of every geometry of a glTF / OBJ scene into a
 // .somm file.
 #include <tbb/global_control.h>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 #include <unistd.h>
 
 #include <algorithm>
@@ -138,7 +141,15 @@ int run(const Options& o) {
   std::optional<tbb::global_control> threadCap;
   if (o.threads) threadCap.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
 
-  // ---- scene ----
+    // ---- scene ----
+#ifdef __GLIBC__
+  // Blocks of 4 MiB and more (decoded images, large masks, map chunks) are mapped on their own and returned to the
+  // system when freed. glibc's default raises this threshold to the largest block freed so far, after which such
+  // blocks come from the heap and their pages stay resident once freed: forza.obj at level 6 peaked 10 MB higher
+  // (47.6 → 37 MB). A lower threshold (256 KiB) saves no more and costs CPU: the bake's smaller scratch blocks would
+  // be mapped and faulted in afresh each time.
+  mallopt(M_MMAP_THRESHOLD, 4 << 20);
+#endif
   somm::LoadOptions lo;
   lo.blendAsMask = o.blendAsMask;
   lo.loadColor = false;  // the bake needs only the alpha

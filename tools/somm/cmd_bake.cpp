@@ -141,7 +141,6 @@ int run(const Options& o) {
   std::optional<tbb::global_control> threadCap;
   if (o.threads) threadCap.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
 
-    // ---- scene ----
 #ifdef __GLIBC__
   // Blocks of 4 MiB and more (decoded images, large masks, map chunks) are mapped on their own and returned to the
   // system when freed. glibc's default raises this threshold to the largest block freed so far, after which such
@@ -150,6 +149,8 @@ int run(const Options& o) {
   // be mapped and faulted in afresh each time.
   mallopt(M_MMAP_THRESHOLD, 4 << 20);
 #endif
+
+  // ---- scene ----
   somm::LoadOptions lo;
   lo.blendAsMask = o.blendAsMask;
   lo.loadColor = false;  // the bake needs only the alpha

@@ -10,6 +10,16 @@
 #include <cstddef>
 #include <cstdint>
 
+// The index is the lookup's first step on every hot path (filters, shaders' CPU twins): forced inline, so that
+// a caller's template (e.g. a lookup that learns the level from a memo) never pays a call for it.
+#if defined(__GNUC__) || defined(__clang__)
+#define SOMM_BIRD_INLINE __attribute__((always_inline)) inline
+#elif defined(_MSC_VER)
+#define SOMM_BIRD_INLINE __forceinline
+#else
+#define SOMM_BIRD_INLINE inline
+#endif
+
 namespace somm {
 
 inline constexpr uint32_t kMaxLevel = 12;
@@ -21,7 +31,7 @@ constexpr uint32_t microTriangleCount(uint32_t level) noexcept {
 namespace detail {
 
 // Spread the low 16 bits of two words so that bit k lands on bit 2k, both halves at once in one 64-bit word.
-inline uint32_t interleave2(uint32_t even, uint32_t odd) noexcept {
+SOMM_BIRD_INLINE uint32_t interleave2(uint32_t even, uint32_t odd) noexcept {
   uint64_t x = uint64_t(even) | (uint64_t(odd) << 32);
   x = (x | (x << 8)) & 0x00ff00ff00ff00ffull;
   x = (x | (x << 4)) & 0x0f0f0f0f0f0f0f0full;
@@ -32,7 +42,7 @@ inline uint32_t interleave2(uint32_t even, uint32_t odd) noexcept {
 
 // Index of the micro-triangle in integer grid cell (iu, iv) of level `level`; `upper` (0 or 1) selects the inverted
 // triangle of the cell, the one whose vertices sum to iu + iv + 2. Requires iu + iv + upper < 2^level.
-inline uint32_t cellToIndex(uint32_t iu, uint32_t iv, uint32_t upper, uint32_t level) noexcept {
+SOMM_BIRD_INLINE uint32_t cellToIndex(uint32_t iu, uint32_t iv, uint32_t upper, uint32_t level) noexcept {
   const uint32_t iw = ~(iu + iv + upper);
   const uint32_t b0 = ~(iu ^ iw) & ((1u << level) - 1u);
   const uint32_t t = (iu ^ iv) & b0;
@@ -51,7 +61,7 @@ inline uint32_t cellToIndex(uint32_t iu, uint32_t iv, uint32_t upper, uint32_t l
 // float input. u and v are clamped to [0, 1] first; NaN clamps to 0 (IEEE maxNum/minNum, as GPU min/max do). A point on
 // a shared edge or vertex goes where the reference's quantisation sends it: cell (floor(u·2^L), floor(v·2^L)) reduced
 // into the triangle, and the upper triangle of the cell when the float sum frac(u·2^L) + frac(v·2^L) >= 1.
-inline uint32_t baryToIndex(float u, float v, uint32_t level) noexcept {
+SOMM_BIRD_INLINE uint32_t baryToIndex(float u, float v, uint32_t level) noexcept {
   u = u > 0.0f ? u : 0.0f;  // NaN → 0
   v = v > 0.0f ? v : 0.0f;
   u = u < 1.0f ? u : 1.0f;

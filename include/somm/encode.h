@@ -503,18 +503,25 @@ inline uint32_t sdagDescendToHeight2(const uint8_t* data, const SdagDirectory& d
   }
 }
 
-// A per-thread memo of the last walks from a root to a record of height 2 (256 entries, direct mapped): rays
-// next to each other hit the same 256-micro-triangle blocks of the same maps, and a hit skips all the DAG levels
-// above the last two. An entry is keyed by the array's identity (EncodedArray::identity(), unique per content:
-// a new one for every build and parse, shared only by copies, which hold the same bytes), the root's offset, the
-// level, the format and index >> 8, and holds an offset into the data (never a pointer), so it can never answer
-// for other bytes. Levels below 6 (at most two DAG steps) do not use it.
+// A per-thread memo of the last lookup per triangle (256 entries, direct mapped by triangle): rays next to each
+// other hit the same triangles and nearby micro-triangles. An entry keeps the triangle's index-buffer value
+// resolved (the map's root, level, format, kind, or a special index's state), the last micro-triangle index it
+// looked up, the leaf around it (its 16 states) and the walk's path to it: path[h - 2] = the record of height h
+// covering index >> 4h (its byte offset in the data), or a state (< 4) when a uniform child above ended the walk.
+// The next lookup of the triangle restarts at the lowest record that covers both indices (a finger search): the
+// same leaf costs no DAG step, a neighbouring leaf one. Entries are keyed by the array's identity
+// (EncodedArray::identity(), unique per content: a new one for every build and parse, shared only by copies,
+// which hold the same bytes) and the triangle, and hold offsets and states (never pointers), so an entry can
+// never answer for other bytes.
 struct SdagMemo {
   struct Entry {
     uint64_t array = 0;  // 0: empty (identities start at 1)
-    uint32_t root = 0;
-    uint32_t key = 0;     // index >> 8 | level << 20 | format << 28
-    uint32_t target = 0;  // sdagDescendToHeight2's answer
+    uint32_t triangle = 0;
+    uint32_t root = 0;      // the map's descriptor offset, or (kind 2) the special index's state
+    uint32_t index = ~0u;   // the last index looked up (~0u: none since the entry was filled)
+    uint32_t leaf = 0;      // the 16 states of its leaf (index >> 4)
+    uint32_t path[5] = {};  // heights 2..6
+    uint8_t level = 0, format = 0, kind = 0;  // kind: 0 a DAG map, 1 a flat map, 2 a special index
   };
   Entry entry[256];
 };
@@ -522,21 +529,83 @@ inline SdagMemo& sdagMemo() noexcept {
   thread_local SdagMemo memo;
   return memo;
 }
+inline SdagMemo::Entry& sdagMemoEntry(uint32_t triangle) noexcept {
+  return sdagMemo().entry[(triangle * 0x9e3779b1u) >> 24];
+}
+// Bits needed for x > 0 (the position of its highest set bit + 1).
+SOMM_ENCODE_INLINE uint32_t bitWidth32(uint32_t x) noexcept {
+#if defined(__GNUC__) || defined(__clang__)
+  return 32u - uint32_t(__builtin_clz(x));
+#else
+  uint32_t n = 0;
+  while (x) ++n, x >>= 1;
+  return n;
+#endif
+}
+// One step down from the node record of height h >= 2 at byte offset `at`: the child of height h - 1 covering
+// `index` (its byte offset; a leaf's for h = 2) or the state (< 4) of a uniform child.
 template <Format F>
-SOMM_ENCODE_INLINE State sdagStateMemo(const uint8_t* data, const SdagDirectory& dir, uint64_t array,
-                                       uint32_t offset, uint32_t level, uint32_t index) noexcept {
-  if (level < 6) return sdagStateAs<F>(data, dir, offset, level, index);
-  const uint32_t key = (index >> 8) | level << 20 | uint32_t(F) << 28;
-  SdagMemo::Entry& e = sdagMemo().entry[((offset * 0x9e3779b1u) ^ (key * 0x85ebca6bu)) >> 24];
-  uint32_t target;
-  if (e.array == array && e.root == offset && e.key == key) {
-    target = e.target;
-  } else {
-    target = sdagDescendToHeight2<F>(data, dir, offset, level, index);
-    e = SdagMemo::Entry{array, offset, key, target};
+SOMM_ENCODE_INLINE uint32_t sdagStepDown(const uint8_t* data, const SdagDirectory& dir, uint32_t at,
+                                         uint32_t h, uint32_t index) noexcept {
+  constexpr uint32_t b = F == Format::TwoState ? 1u : 2u;
+  const uint8_t* p = data + at;
+  const uint32_t k = sdagRegion(F, h - 1u);
+  const uint32_t slot = (index >> (4u * (h - 1u))) & 15u, m = load16(p),
+                 below = popcount16(m & ((1u << slot) - 1u));
+  if (!((m >> slot) & 1u)) return getBit(p, 16u + slot - below);
+  const uint32_t n = popcount16(m);
+  const uint32_t ref = sdagRef(p, 32u - n, n, below, dir.width[k], dir.tier[k], dir.mid[k]);
+  return dir.base[k] + (h == 2u ? ref * 2u * b : ref);
+}
+// The leaf word of a memo entry's map (kind 0) around `index` (b·16 bits, state i at bit b·i; a uniform block's
+// state repeated), by the walk from the lowest record on the entry's path that covers both `index` and the
+// entry's last index; updates the path and the last index.
+template <Format F>
+inline uint32_t sdagMemoLeafWord(const uint8_t* data, const SdagDirectory& dir, SdagMemo::Entry& e,
+                                 uint32_t index) noexcept {
+  constexpr uint32_t b = F == Format::TwoState ? 1u : 2u,
+                     repeat = F == Format::TwoState ? 0xffffu : 0x55555555u;
+  const uint32_t level = e.level, top = level >> 1;  // the root's height (even) or its children's (odd)
+  uint32_t at, h = (bitWidth32(index ^ e.index) + 3u) >> 2;  // the lowest height whose block holds both
+  e.index = index;
+  if (level < 4) {  // at most a leaf under a 4-way root: nothing to keep
+    const uint8_t* p = data + e.root;
+    if (level <= 1) return p[0];
+    if (level & 1u) {
+      const uint32_t slot = index >> 4, m = p[0] & 15u, below = popcount16(m & ((1u << slot) - 1u));
+      if (!((m >> slot) & 1u)) return getBit(p, 4u + slot - below) * repeat;
+      const uint32_t k = sdagRegion(F, 1), n = popcount16(m);
+      p = data + dir.base[k] + sdagRef(p, 8u - n, n, below, dir.width[k], dir.tier[k], dir.mid[k]) * 2u * b;
+    }
+    return F == Format::TwoState ? load16(p) : load32(p);
   }
-  if (target < 4) return State(target);
-  return sdagNodeStep<F, 2>(data, dir, data + target, index);
+  if (h > top) {  // from the root
+    h = top;
+    at = e.root;
+    if (level & 1u) {  // the 4-way root: its child of height top
+      const uint8_t* p = data + e.root;
+      const uint32_t slot = index >> (2 * level - 2), m = p[0] & 15u,
+                     below = popcount16(m & ((1u << slot) - 1u));
+      if (!((m >> slot) & 1u)) {
+        at = getBit(p, 4u + slot - below);
+      } else {
+        const uint32_t k = sdagRegion(F, top), n = popcount16(m);
+        const uint32_t ref = sdagRef(p, 8u - n, n, below, dir.width[k], dir.tier[k], dir.mid[k]);
+        at = dir.base[k] + (top == 1u ? ref * 2u * b : ref);
+      }
+    }
+  } else {
+    at = e.path[h - 2];
+  }
+  for (; h >= 2 && at >= 4; --h) {
+    e.path[h - 2] = at;
+    at = sdagStepDown<F>(data, dir, at, h, index);
+  }
+  if (at < 4) {  // a uniform block of height h: every record below it on the path is that state
+    for (; h >= 2; --h) e.path[h - 2] = at;
+    return at * repeat;
+  }
+  return F == Format::TwoState ? load16(data + at) : load32(data + at);
 }
 
 inline State sdagState(const uint8_t* data, const SdagDirectory& dir, uint32_t offset, uint32_t level,
@@ -699,6 +768,7 @@ class EncodedArray {
   // The same with the encoding fixed at compile time (E must equal encoding()).
   template <Encoding E>
   State stateAs(uint32_t triangle, uint32_t index) const noexcept {
+    if constexpr (E == Encoding::Sdag) return sdagMemoState(triangle, [index](uint32_t) { return index; });
     const int32_t i = indexAs<E>(triangle);
     if (i < 0) return stateOfSpecialIndex(i);
     const EncodedMapDesc& d = maps_[size_t(i)];
@@ -706,6 +776,8 @@ class EncodedArray {
   }
   template <Encoding E>
   State stateUVAs(uint32_t triangle, float u, float v) const noexcept {
+    if constexpr (E == Encoding::Sdag)
+      return sdagMemoState(triangle, [u, v](uint32_t level) { return baryToIndex(u, v, level); });
     const int32_t i = indexAs<E>(triangle);
     if (i < 0) return stateOfSpecialIndex(i);
     const EncodedMapDesc& d = maps_[size_t(i)];
@@ -724,6 +796,39 @@ class EncodedArray {
     return indices_[triangle];
   }
 
+  // The sdag lookup of a triangle through the per-thread memo (encode::SdagMemo); indexOf(level) gives the
+  // micro-triangle index once the triangle's level is known.
+  template <class IndexOf>
+  State sdagMemoState(uint32_t triangle, IndexOf indexOf) const noexcept {
+    encode::SdagMemo::Entry& e = encode::sdagMemoEntry(triangle);
+    if (e.array != identity_ || e.triangle != triangle) {
+      const int32_t i = indexAs<Encoding::Sdag>(triangle);
+      e.array = identity_;
+      e.triangle = triangle;
+      e.index = ~0u;
+      if (i < 0) {
+        e.kind = 2;
+        e.root = uint32_t(stateOfSpecialIndex(i));
+      } else {
+        const EncodedMapDesc& d = maps_[size_t(i)];
+        e.kind = d.kind == MapKind::Flat ? 1 : 0;
+        e.root = d.offset;
+        e.level = d.level;
+        e.format = d.format;
+      }
+    }
+    if (e.kind == 2) return State(e.root);
+    const uint32_t index = indexOf(e.level);
+    const Format f = Format(e.format);
+    if (e.kind == 1) return encode::flatState(data_.data() + e.root, e.level, f, index);
+    if ((index ^ e.index) >= 16u)
+      e.leaf = f == Format::FourState
+                   ? encode::sdagMemoLeafWord<Format::FourState>(data_.data(), dir_, e, index)
+                   : encode::sdagMemoLeafWord<Format::TwoState>(data_.data(), dir_, e, index);
+    return f == Format::FourState ? State((e.leaf >> (2u * (index & 15u))) & 3u)
+                                  : State((e.leaf >> (index & 15u)) & 1u);
+  }
+
   template <Encoding E>
   State mapState(const EncodedMapDesc& d, uint32_t index) const noexcept {
     const uint8_t* blob = data_.data() + d.offset;
@@ -735,10 +840,7 @@ class EncodedArray {
     if constexpr (E == Encoding::Csm) return encode::csmState(data_.data(), d.offset, d.level, f, index);
     if constexpr (E == Encoding::Sdag) {
       if (d.kind == MapKind::Flat) return encode::flatState(blob, d.level, f, index);
-      if (f == Format::FourState)
-        return encode::sdagStateMemo<Format::FourState>(data_.data(), dir_, identity_, d.offset, d.level,
-                                                        index);
-      return encode::sdagStateMemo<Format::TwoState>(data_.data(), dir_, identity_, d.offset, d.level, index);
+      return encode::sdagState(data_.data(), dir_, d.offset, d.level, f, index);
     }
     if constexpr (E == Encoding::Hybrid) {
       switch (d.kind) {
@@ -788,7 +890,7 @@ class EncodedArray {
   uint64_t dataBytes_ = 0;
   bool hasDirectory_ = false;
   encode::SdagDirectory dir_{};
-  uint64_t identity_ = 0;        // unique per content (build / parse), the key of encode::sdagMemo
+  uint64_t identity_ = 0;        // unique per content (build / parse), a key of encode::sdagMemo
   uint32_t indexBits_ = 0;       // > 0 iff hasDirectory_
   std::vector<uint8_t> packed_;  // the packed index buffer (indexBits_ > 0) + kTailPadding zero bytes
   uint64_t indexGroups_ = 0;     // > 0 iff the packed buffer is rank-packed: its number of 32-triangle groups

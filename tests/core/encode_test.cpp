@@ -873,5 +873,57 @@ TEST(EncodeDag, WalkMemoNeverAnswersForOtherBytes) {
     }
 }
 
+// The per-thread memo of sdag lookups (one entry per triangle hash, a finger search from the last index): any
+// order of lookups answers as flat. 600 triangles (more than the memo's 256 entries, so entries are evicted and
+// refilled), maps of every level 0..10 and pattern (uniform maps become special indices, noise maps are stored
+// flat inside the sdag array), repeated maps; lookups in random order, stepping to the next index, flipping one
+// index bit (every height of the path), by index and by (u, v), with a second array interleaved.
+TEST(EncodeDag, WalkMemoAnswersAsFlatInAnyOrder) {
+  for (Format f : {Format::TwoState, Format::FourState}) {
+    std::mt19937 rng(f == Format::TwoState ? 11u : 12u);
+    std::vector<Micromap> maps;
+    for (uint32_t t = 0; t < 600; ++t) {
+      if (t > 20 && rng() % 4 == 0) {
+        maps.push_back(maps[rng() % maps.size()]);
+        continue;
+      }
+      const uint32_t level = rng() % 11;
+      maps.push_back(cachedMap(kPatterns[rng() % 6], level, f, 1 + rng() % 3));
+    }
+    const OmmArray oracle = arrayOf(maps);
+    const EncodedArray e = EncodedArray::build(oracle, Encoding::Sdag).value();
+    const OmmArray other = arrayOf({cachedMap(Pattern::Leaf, 8, f, 7), cachedMap(Pattern::Disc, 9, f, 7)});
+    const EncodedArray o = EncodedArray::build(other, Encoding::Sdag).value();
+    bool flatKind = false;
+    for (const EncodedMapDesc& d : e.maps()) flatKind |= d.kind == MapKind::Flat;
+    EXPECT_TRUE(flatKind);  // the noise maps
+    const uint32_t triangles = e.triangleCount();
+    std::vector<uint32_t> last(triangles, 0);
+    for (uint32_t q = 0; q < 200000; ++q) {
+      const uint32_t t = rng() % triangles;
+      const uint32_t level =
+          oracle.indices[t] >= 0 ? oracle.descriptors[size_t(oracle.indices[t])].subdivisionLevel : 0;
+      const uint32_t n = microTriangleCount(level);
+      uint32_t i;
+      switch (rng() % 3) {
+        case 0:
+          i = rng() % n;
+          break;
+        case 1:
+          i = (last[t] + 1) % n;
+          break;
+        default:
+          i = level ? last[t] ^ (1u << (rng() % (2 * level))) : 0;
+      }
+      last[t] = i;
+      ASSERT_EQ(e.state(t, i), oracle.state(t, i)) << int(f) << " triangle " << t << " index " << i;
+      const float u = float(rng() % 4097) / 4096.0f, v = float(rng() % 4097) / 4096.0f;
+      ASSERT_EQ(e.stateUV(t, u, v), oracle.stateUV(t, u, v))
+          << int(f) << " triangle " << t << " " << u << " " << v;
+      const uint32_t ot = rng() % 2, oi = rng() % microTriangleCount(ot == 1 ? 9 : 8);
+      ASSERT_EQ(o.state(ot, oi), other.state(ot, oi)) << int(f) << " other " << ot << " " << oi;
+    }
+  }
+}
 }  // namespace
 }  // namespace somm

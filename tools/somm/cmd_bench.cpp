@@ -28,6 +28,7 @@ struct Row {
   std::unique_ptr<somm::Tracer> tracer;
   std::vector<double> mrays;   // per repeat
   std::vector<double> ratios;  // per repeat: mrays / texture's mrays of the same repeat
+  std::vector<double> toFlat;  // per repeat: mrays / the same format's omm<f>-flat mrays (empty: no such row)
   somm::TraceCounters counters;
   double diff = 0;
   bool exact = false;  // must match texture pixel for pixel
@@ -102,6 +103,16 @@ int run(const Options& o) {
   for (Row& r : rows)
     for (size_t k = 0; k < r.mrays.size(); ++k)
       r.ratios.push_back(textureRuns[k] > 0 ? r.mrays[k] / textureRuns[k] : 0.0);
+  // The same against flat micromaps of the same format (omm2-flat / omm4-flat), when that row was run: what a
+  // compressed encoding costs in tracing.
+  for (Row& r : rows) {
+    if (r.spec.kind != somm::MethodKind::Omm) continue;
+    for (const Row& f : rows)
+      if (f.spec.kind == somm::MethodKind::Omm && f.spec.format == r.spec.format &&
+          f.name == (r.spec.format == somm::Format::FourState ? "omm4-flat" : "omm2-flat"))
+        for (size_t k = 0; k < r.mrays.size(); ++k)
+          r.toFlat.push_back(f.mrays[k] > 0 ? r.mrays[k] / f.mrays[k] : 0.0);
+  }
   const double textureMedian = median(textureRuns);
   const double textureSpread = textureMedian > 0
                                    ? (*std::max_element(textureRuns.begin(), textureRuns.end()) -
@@ -135,6 +146,8 @@ int run(const Options& o) {
                     {"ratio_to_texture_runs", r.ratios},
                     {"ratio_min", *std::min_element(r.ratios.begin(), r.ratios.end())},
                     {"ratio_max", *std::max_element(r.ratios.begin(), r.ratios.end())},
+                    {"ratio_to_flat", r.toFlat.empty() ? nlohmann::json() : nlohmann::json(median(r.toFlat))},
+                    {"ratio_to_flat_runs", r.toFlat},
                     {"rays", r.counters.rays()},
                     {"filter_calls_per_ray", rays ? double(r.counters.filterCalls) / rays : 0.0},
                     {"texture_tests_per_ray", rays ? double(r.counters.textureTests) / rays : 0.0},
@@ -154,19 +167,27 @@ int run(const Options& o) {
                   needMicromaps ? p->micromapSource.c_str() : "-", (unsigned long long)alphaPixels,
                   (unsigned long long)p->settings.width * p->settings.height);
     out.put(buf);
-    std::snprintf(buf, sizeof buf, "%-14s %9s %10s %13s %12s %13s %14s %9s\n", "method", "Mrays/s",
-                  "vs texture", "ratio range", "filter/ray", "texture/ray", "micromap bytes", "% pixels");
+    std::snprintf(buf, sizeof buf, "%-14s %9s %10s %13s %8s %13s %12s %13s %14s %9s\n", "method", "Mrays/s",
+                  "vs texture", "ratio range", "vs flat", "flat range", "filter/ray", "texture/ray",
+                  "micromap bytes", "% pixels");
     out.put(buf);
     for (const Row& r : rows) {
       const double rays = double(r.counters.rays());
-      char range[64];
+      char range[64], flat[32] = "-", flatRange[64] = "-";
       std::snprintf(range, sizeof range, "%.2f-%.2f", *std::min_element(r.ratios.begin(), r.ratios.end()),
                     *std::max_element(r.ratios.begin(), r.ratios.end()));
-      std::snprintf(
-          buf, sizeof buf, "%-14s %9.2f %9.2fx %13s %12.3f %13.3f %14llu %8.3f%s\n", r.name.c_str(),
-          median(r.mrays), median(r.ratios), range, rays ? double(r.counters.filterCalls) / rays : 0.0,
-          rays ? double(r.counters.textureTests) / rays : 0.0, (unsigned long long)r.tracer->micromapBytes(),
-          r.diff, r.exact && r.diff != 0.0 ? "  NOT EXACT" : "");
+      if (!r.toFlat.empty()) {
+        std::snprintf(flat, sizeof flat, "%.3fx", median(r.toFlat));
+        std::snprintf(flatRange, sizeof flatRange, "%.2f-%.2f",
+                      *std::min_element(r.toFlat.begin(), r.toFlat.end()),
+                      *std::max_element(r.toFlat.begin(), r.toFlat.end()));
+      }
+      std::snprintf(buf, sizeof buf, "%-14s %9.2f %9.2fx %13s %8s %13s %12.3f %13.3f %14llu %8.3f%s\n",
+                    r.name.c_str(), median(r.mrays), median(r.ratios), range, flat, flatRange,
+                    rays ? double(r.counters.filterCalls) / rays : 0.0,
+                    rays ? double(r.counters.textureTests) / rays : 0.0,
+                    (unsigned long long)r.tracer->micromapBytes(), r.diff,
+                    r.exact && r.diff != 0.0 ? "  NOT EXACT" : "");
       out.put(buf);
     }
   }

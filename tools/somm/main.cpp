@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include <cerrno>
 #include <charconv>
+#include <cstdio>
 #include <cstring>
 #include <new>
 #include <vector>
@@ -62,6 +63,18 @@ void Output::putUInt(uint64_t v) {
 // terminates at startup, before any work.
 int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
   using namespace somm::cli;
+#if (defined(__GNUC__) || defined(__clang__)) && defined(__POPCNT__) && \
+    (defined(__x86_64__) || defined(__i386__))
+  // Built with -mpopcnt (CMake option SOMM_POPCNT): refuse to run on a CPU without the instruction rather than
+  // die of an illegal instruction in the middle of a command.
+  if (!__builtin_cpu_supports("popcnt")) {
+    std::fputs(
+        "somm: this build uses the POPCNT instruction (x86-64-v2), which this CPU lacks; rebuild with "
+        "-DSOMM_POPCNT=OFF\n",
+        stderr);
+    return kExitFailure;
+  }
+#endif
   CLI::App app{"somm — Succinct Opacity MicroMaps: bake, compress, inspect and ray trace opacity micromaps",
                "somm"};
   try {

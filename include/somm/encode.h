@@ -357,19 +357,22 @@ inline State csmState(const uint8_t* data, uint32_t offset, uint32_t level, Form
   return getValue(p, 0, f, index & 15u);
 }
 
-// sdag: the data buffer starts with a 96-byte directory: u32 base[13] (byte offset of region k = (format-1)·6 +
-// height-1, base[12] = end of the regions), u8 width[12] (bits of a reference into region k), u8 tier[12] (0: every
-// reference into region k is width[k] bits; t > 0: each is short, t-1 bits, or not), u8 mid[12] (0: a reference
-// that is not short is long, width[k] bits; u > t: it is mid, u-1 bits, or long) and 8 zero bytes. A node of
-// height h in region (f, h): u16 mask M (1 = child is a node), the states of the uniform children (M bit 0) in slot
-// order, 1 bit each (transparent / opaque; a uniformly unknown child is a node child), then the references of the
-// node children in slot order — when region (f, h-1) is tiered first one flag bit per node child (F, 1 = short),
-// with a mid class then one bit per node child that is not short (G, 1 = mid), then the references —: a leaf number
-// in region (f, 1) (leaves are 2b bytes) or a byte offset into region (f, h-1); byte-aligned records. Records are
-// sorted by use, so the most used ones have the small (short, mid) references. The mask and the flags are the
-// node's rank directory: the child's state or reference sits at popcount(M below the slot), and a reference's bit
-// position at popcounts of F and G below it — counts and the bits they count are in the same record.
-inline constexpr uint32_t kSdagDirectoryBytes = 96;
+// sdag: the data buffer starts with a 104-byte directory: u32 base[13] (byte offset of region k = (format-1)·6 +
+// height-1, base[12] = end of the regions), u8 width[12] (bits of a long reference into region k), u8 tier[12] (0:
+// every reference into region k is long; t > 0: each is short, t-1 bits, or not), u8 mid[12] (0: a reference that
+// is not short is long; u > t: it is mid, u-1 bits, or long), u8 local[12] (1: a long reference into region k is
+// local: the child's byte offset from the referring record's first byte) and 4 zero bytes. A node of height h:
+// u16 mask M (1 = child is a node), the states of the uniform children (M bit 0) in slot order, 1 bit each
+// (transparent / opaque; a uniformly unknown child is a node child), then the references of the node children in
+// slot order — when region (f, h-1) is tiered first one flag bit per node child (F, 1 = short), with a mid class
+// then one bit per node child that is not short (G, 1 = mid), then the references —: short and mid ones (and long
+// ones without the local flag) a leaf number in region (f, 1) (leaves are 2b bytes) or a byte offset into region
+// (f, h-1); byte-aligned records. A record referenced once (from a node record) may be local: stored right after
+// its parent (pre-order, in slot order) instead of in its region. Records are sorted by use, so the most used
+// ones have the small (short, mid) references. The mask and the flags are the node's rank directory: the child's
+// state or reference sits at popcount(M below the slot), and a reference's bit position at popcounts of F and G
+// below it — counts and the bits they count are in the same record.
+inline constexpr uint32_t kSdagDirectoryBytes = 104;
 inline constexpr uint32_t kSdagRegions = 12;
 constexpr uint32_t sdagRegion(Format f, uint32_t height) noexcept {
   return (uint32_t(f) - 1u) * 6u + height - 1u;
@@ -379,35 +382,80 @@ struct SdagDirectory {
   uint8_t width[kSdagRegions] = {};
   uint8_t tier[kSdagRegions] = {};
   uint8_t mid[kSdagRegions] = {};
+  uint8_t local[kSdagRegions] = {};  // 1: the long class of references into region k is local (version 6)
   friend bool operator==(const SdagDirectory& a, const SdagDirectory& b) noexcept {
     return std::memcmp(&a, &b, sizeof(SdagDirectory)) == 0;
   }
 };
 // Reference number i of the n node children of a record whose references (with their flags) start at bit `pos`
-// (w, tier, mid: of the region referred to).
+// (w, tier, mid: of the region referred to), and whether it is of the long class (width w: neither short nor mid),
+// which is a local reference (a byte offset from the record's first byte) when the region's local flag is set.
+struct SdagRefClass {
+  uint32_t ref;
+  uint32_t isLong;  // 1 = long class
+};
+SOMM_ENCODE_INLINE SdagRefClass sdagRefClass(const uint8_t* p, uint32_t pos, uint32_t n, uint32_t i,
+                                             uint32_t w, uint32_t tier, uint32_t mid) noexcept {
+  if (tier == 0) return {getBits(p, pos + w * i, w), 1u};
+  const uint32_t sw = tier - 1u, fl = getBits(p, pos, n), s = popcount16(fl & ((1u << i) - 1u)), q = i - s;
+  const uint32_t isShort = (fl >> i) & 1u;
+  if (mid == 0) return {getBits(p, pos + n + sw * s + w * q, isShort ? sw : w), isShort ^ 1u};
+  const uint32_t longOrMid = n - popcount16(fl), g = getBits(p, pos + n, longOrMid),
+                 gb = popcount16(g & ((1u << q) - 1u)), mw = mid - 1u, isMid = (g >> q) & 1u & (isShort ^ 1u);
+  const uint32_t at = pos + n + longOrMid + sw * s + mw * gb + w * (q - gb);
+  return {getBits(p, at, isShort ? sw : isMid ? mw : w), (isShort | isMid) ^ 1u};
+}
 SOMM_ENCODE_INLINE uint32_t sdagRef(const uint8_t* p, uint32_t pos, uint32_t n, uint32_t i, uint32_t w,
                                     uint32_t tier, uint32_t mid) noexcept {
-  if (tier == 0) return getBits(p, pos + w * i, w);
-  const uint32_t sw = tier - 1u, fl = getBits(p, pos, n), s = popcount16(fl & ((1u << i) - 1u)), q = i - s;
-  if (mid == 0) return getBits(p, pos + n + sw * s + w * q, ((fl >> i) & 1u) ? sw : w);
-  const uint32_t longOrMid = n - popcount16(fl), g = getBits(p, pos + n, longOrMid),
-                 gb = popcount16(g & ((1u << q) - 1u)), mw = mid - 1u;
-  const uint32_t at = pos + n + longOrMid + sw * s + mw * gb + w * (q - gb);
-  return getBits(p, at, ((fl >> i) & 1u) ? sw : ((g >> q) & 1u) ? mw : w);
+  return sdagRefClass(p, pos, n, i, w, tier, mid).ref;
 }
-// Bits of the references (with their flags) of such a record.
+// A reference into a leaf region with the local flag: a third flag vector H follows F and G, one bit per reference
+// that is neither short nor mid (1 = local); local references take no bits: the record's local leaves are stored
+// right before it in slot order, so local leaf j of the record's Lt is (Lt - j)·2b bytes before it. Returns
+// isLong = 1 and ref = Lt - j for a local leaf, else the leaf number.
+SOMM_ENCODE_INLINE SdagRefClass sdagLeafRefClass(const uint8_t* p, uint32_t pos, uint32_t n, uint32_t i,
+                                                 uint32_t w, uint32_t tier, uint32_t mid) noexcept {
+  const uint32_t fl = tier != 0 ? getBits(p, pos, n) : 0u, s = popcount16(fl & ((1u << i) - 1u)), q = i - s;
+  const uint32_t isShort = (fl >> i) & 1u, r = n - popcount16(fl);
+  uint32_t at = pos + (tier != 0 ? n : 0u);
+  const uint32_t g = mid != 0 ? getBits(p, at, r) : 0u, gb = popcount16(g & ((1u << q) - 1u));
+  at += mid != 0 ? r : 0u;
+  const uint32_t isMid = (g >> q) & 1u & (isShort ^ 1u), r2 = r - popcount16(g), o = q - gb;
+  const uint32_t hh = getBits(p, at, r2), hb = popcount16(hh & ((1u << o) - 1u));
+  const uint32_t isLocal = (hh >> o) & 1u & ((isShort | isMid) ^ 1u);
+  const uint32_t sw = tier != 0 ? tier - 1u : 0u, mw = mid != 0 ? mid - 1u : 0u;
+  const uint32_t refAt = at + r2 + sw * s + mw * gb + w * (o - hb);
+  const uint32_t ref = getBits(p, refAt, isShort ? sw : isMid ? mw : isLocal ? 0u : w);
+  return {isLocal ? popcount16(hh) - hb : ref, isLocal};
+}
+// The byte offset (in the data) of the child that reference number i of the record at byte offset `at` (p) refers
+// to, in region k (leafBytes: 2b for a leaf region, 0 for a node region): a local node is at a byte offset from
+// the record, a local leaf before it, the others in the region.
+SOMM_ENCODE_INLINE uint32_t sdagChildAt(const SdagDirectory& dir, const uint8_t* p, uint32_t at, uint32_t pos,
+                                        uint32_t n, uint32_t i, uint32_t k, uint32_t leafBytes) noexcept {
+  const uint32_t w = dir.width[k], t = dir.tier[k], u = dir.mid[k];
+  if (leafBytes != 0 && dir.local[k] != 0) {
+    const SdagRefClass r = sdagLeafRefClass(p, pos, n, i, w, t, u);
+    return r.isLong != 0 ? at - r.ref * leafBytes : dir.base[k] + r.ref * leafBytes;
+  }
+  const SdagRefClass r = sdagRefClass(p, pos, n, i, w, t, u);
+  return (r.isLong & dir.local[k]) != 0 ? at + r.ref
+                                        : dir.base[k] + r.ref * (leafBytes != 0 ? leafBytes : 1u);
+}
+// Bits of the references (with their flags) of such a record (h: with the H flags of a local leaf region).
 inline uint32_t sdagRefBits(const uint8_t* p, uint32_t pos, uint32_t n, uint32_t w, uint32_t tier,
-                            uint32_t mid) noexcept {
+                            uint32_t mid, bool h = false) noexcept {
+  if (h) {
+    const uint32_t s = tier != 0 ? popcount64(getBits(p, pos, n)) : 0u, f = tier != 0 ? n : 0u;
+    const uint32_t g = mid != 0 ? popcount64(getBits(p, pos + f, n - s)) : 0u, gl = mid != 0 ? n - s : 0u;
+    const uint32_t r2 = n - s - g, loc = popcount64(getBits(p, pos + f + gl, r2));
+    return f + gl + r2 + (tier != 0 ? tier - 1u : 0u) * s + (mid != 0 ? mid - 1u : 0u) * g + w * (r2 - loc);
+  }
   if (tier == 0) return w * n;
   const uint32_t s = popcount64(getBits(p, pos, n));
   if (mid == 0) return n + (tier - 1u) * s + w * (n - s);
   const uint32_t g = popcount64(getBits(p, pos + n, n - s));
   return n + (n - s) + (tier - 1u) * s + (mid - 1u) * g + w * (n - s - g);
-}
-inline const uint8_t* sdagChild(const uint8_t* data, const SdagDirectory& dir, Format f, uint32_t height,
-                                uint32_t ref) noexcept {
-  const uint32_t k = sdagRegion(f, height);
-  return data + dir.base[k] + (height == 1 ? ref * 2u * bitsPerState(f) : ref);
 }
 // The walk, specialised per format and record height (unrolled: shifts, regions and state widths are
 // constants). Step of a node record of height H >= 2 at p: index bits [4(H-1), 4H) pick the child.
@@ -419,11 +467,12 @@ SOMM_ENCODE_INLINE State sdagNodeStep(const uint8_t* data, const SdagDirectory& 
                  below = popcount16(m & ((1u << slot) - 1u));
   if (!((m >> slot) & 1u)) return State(getBit(p, 16u + slot - below));
   const uint32_t n = popcount16(m);
-  const uint32_t ref = sdagRef(p, 32u - n, n, below, dir.width[k], dir.tier[k], dir.mid[k]);
+  const uint8_t* c =
+      data + sdagChildAt(dir, p, uint32_t(p - data), 32u - n, n, below, k, H == 2 ? 2u * b : 0u);
   if constexpr (H == 2) {
-    return getValue(data + dir.base[k] + ref * 2u * b, 0, F, index & 15u);
+    return getValue(c, 0, F, index & 15u);
   } else {
-    return sdagNodeStep<F, H - 1>(data, dir, data + dir.base[k] + ref, index);
+    return sdagNodeStep<F, H - 1>(data, dir, c, index);
   }
 }
 template <Format F>
@@ -455,7 +504,7 @@ inline State sdagStateAs(const uint8_t* data, const SdagDirectory& dir, uint32_t
                    below = popcount16(m & ((1u << slot) - 1u));
     if (!((m >> slot) & 1u)) return State(getBit(p, 4u + slot - below));
     const uint32_t k = sdagRegion(F, h), n = popcount16(m);
-    p = sdagChild(data, dir, F, h, sdagRef(p, 8u - n, n, below, dir.width[k], dir.tier[k], dir.mid[k]));
+    p = data + sdagChildAt(dir, p, offset, 8u - n, n, below, k, h == 1 ? 2u * bitsPerState(F) : 0u);
   }
   return sdagNodeWalk<F>(data, dir, p, h, index);
 }
@@ -470,7 +519,7 @@ inline uint32_t sdagDescend(const uint8_t* data, const SdagDirectory& dir, const
                  below = popcount16(m & ((1u << slot) - 1u));
   if (!((m >> slot) & 1u)) return getBit(p, 16u + slot - below);
   const uint32_t n = popcount16(m);
-  const uint32_t child = dir.base[k] + sdagRef(p, 32u - n, n, below, dir.width[k], dir.tier[k], dir.mid[k]);
+  const uint32_t child = sdagChildAt(dir, p, uint32_t(p - data), 32u - n, n, below, k, 0u);
   if constexpr (H == 3) {
     return child;
   } else {
@@ -487,7 +536,7 @@ inline uint32_t sdagDescendToHeight2(const uint8_t* data, const SdagDirectory& d
                    below = popcount16(m & ((1u << slot) - 1u));
     if (!((m >> slot) & 1u)) return getBit(p, 4u + slot - below);
     const uint32_t k = sdagRegion(F, h), n = popcount16(m);
-    const uint32_t child = dir.base[k] + sdagRef(p, 8u - n, n, below, dir.width[k], dir.tier[k], dir.mid[k]);
+    const uint32_t child = sdagChildAt(dir, p, offset, 8u - n, n, below, k, 0u);
     if (h == 2) return child;
     p = data + child;
   }
@@ -554,8 +603,7 @@ SOMM_ENCODE_INLINE uint32_t sdagStepDown(const uint8_t* data, const SdagDirector
                  below = popcount16(m & ((1u << slot) - 1u));
   if (!((m >> slot) & 1u)) return getBit(p, 16u + slot - below);
   const uint32_t n = popcount16(m);
-  const uint32_t ref = sdagRef(p, 32u - n, n, below, dir.width[k], dir.tier[k], dir.mid[k]);
-  return dir.base[k] + (h == 2u ? ref * 2u * b : ref);
+  return sdagChildAt(dir, p, at, 32u - n, n, below, k, h == 2u ? 2u * b : 0u);
 }
 // The leaf word of a memo entry's map (kind 0) around `index` (b·16 bits, state i at bit b·i; a uniform block's
 // state repeated), by the walk from the lowest record on the entry's path that covers both `index` and the
@@ -575,7 +623,7 @@ inline uint32_t sdagMemoLeafWord(const uint8_t* data, const SdagDirectory& dir, 
       const uint32_t slot = index >> 4, m = p[0] & 15u, below = popcount16(m & ((1u << slot) - 1u));
       if (!((m >> slot) & 1u)) return getBit(p, 4u + slot - below) * repeat;
       const uint32_t k = sdagRegion(F, 1), n = popcount16(m);
-      p = data + dir.base[k] + sdagRef(p, 8u - n, n, below, dir.width[k], dir.tier[k], dir.mid[k]) * 2u * b;
+      p = data + sdagChildAt(dir, p, e.root, 8u - n, n, below, k, 2u * b);
     }
     return F == Format::TwoState ? load16(p) : load32(p);
   }
@@ -590,8 +638,7 @@ inline uint32_t sdagMemoLeafWord(const uint8_t* data, const SdagDirectory& dir, 
         at = getBit(p, 4u + slot - below);
       } else {
         const uint32_t k = sdagRegion(F, top), n = popcount16(m);
-        const uint32_t ref = sdagRef(p, 8u - n, n, below, dir.width[k], dir.tier[k], dir.mid[k]);
-        at = dir.base[k] + (top == 1u ? ref * 2u * b : ref);
+        at = sdagChildAt(dir, p, e.root, 8u - n, n, below, k, top == 1u ? 2u * b : 0u);
       }
     }
   } else {

@@ -567,24 +567,37 @@ uint32_t nodeChildren(const Key& k, uint32_t slots) {
   return n;
 }
 
-// Per region: the records in emission order (most used first), each record's reference (leaf number or byte
-// offset), the reference width and tier (kSdagDirectoryBytes, include/somm/encode.h).
+// Per region: the records stored in the region in emission order (most used first; the local ones are not
+// listed: each is stored right after its only parent, include/somm/encode.h), each record's reference (leaf number
+// or byte offset in the region; for a local record its byte offset from its parent's first byte), the record's
+// own bytes and its subtree's (itself and its local descendants), and the directory fields.
 struct SdagLayout {
   std::array<std::vector<uint32_t>, kSdagRegions> order;
   std::array<std::vector<uint32_t>, kSdagRegions> ref;
+  std::array<std::vector<uint8_t>, kSdagRegions> isLocal;
+  std::array<std::vector<uint64_t>, kSdagRegions> own;
+  std::array<std::vector<uint64_t>, kSdagRegions> sub;
+  std::array<std::vector<uint64_t>, kSdagRegions>
+      pre;  // height 2: bytes of the local leaves stored before it
   std::array<uint64_t, kSdagRegions> bytes{};
   std::array<uint8_t, kSdagRegions> width{};
   std::array<uint8_t, kSdagRegions> tier{};
   std::array<uint8_t, kSdagRegions> mid{};
+  std::array<uint8_t, kSdagRegions> local{};
 
+  bool localRec(uint32_t k, uint32_t id) const { return local[k] != 0 && isLocal[k][id] != 0; }
   bool isShort(uint32_t k, uint32_t id) const {
-    return tier[k] != 0 && ref[k][id] < (uint64_t(1) << (tier[k] - 1u));
+    return tier[k] != 0 && !localRec(k, id) && ref[k][id] < (uint64_t(1) << (tier[k] - 1u));
   }
   bool isMid(uint32_t k, uint32_t id) const {
-    return mid[k] != 0 && !isShort(k, id) && ref[k][id] < (uint64_t(1) << (mid[k] - 1u));
+    return mid[k] != 0 && !isShort(k, id) && !localRec(k, id) && ref[k][id] < (uint64_t(1) << (mid[k] - 1u));
   }
+  bool hFlags(uint32_t k) const { return local[k] != 0 && k % 6 == 0; }  // a leaf region with local leaves
   uint32_t refBits(uint32_t k, uint32_t id) const {
-    return isShort(k, id) ? tier[k] - 1u : isMid(k, id) ? mid[k] - 1u : width[k];
+    return isShort(k, id)                 ? tier[k] - 1u
+           : isMid(k, id)                 ? mid[k] - 1u
+           : hFlags(k) && localRec(k, id) ? 0u
+                                          : width[k];
   }
 };
 
@@ -596,8 +609,23 @@ uint64_t sdagNodeBytes(const Key& k, uint32_t slots, const SdagLayout& l, uint32
     if (k[s] >= kNodeCode) {
       bits += l.refBits(below, k[s] - kNodeCode);
       bits += l.mid[below] != 0 && !l.isShort(below, k[s] - kNodeCode);  // G
+      bits +=
+          l.hFlags(below) && !l.isShort(below, k[s] - kNodeCode) && !l.isMid(below, k[s] - kNodeCode);  // H
     }
   return (bits + 7) / 8;
+}
+
+// below[b] = uses of the records (in `order`, references increasing) whose reference is < 2^b, b = 0..w.
+std::vector<uint64_t> usesBelow(const std::vector<uint32_t>& order, const std::vector<uint32_t>& ref,
+                                const std::vector<uint64_t>& uses, uint32_t w) {
+  std::vector<uint64_t> below(w + 1, 0);
+  size_t i = 0;
+  uint64_t acc = 0;
+  for (uint32_t b = 0; b <= w; ++b) {
+    while (i < order.size() && ref[order[i]] < (uint64_t(1) << b)) acc += uses[order[i++]];
+    below[b] = acc;
+  }
+  return below;
 }
 
 // The tier and mid (0, or short / mid width + 1) that minimise the bits of `uses` references into records whose
@@ -606,13 +634,7 @@ std::pair<uint8_t, uint8_t> bestTiers(const std::vector<uint32_t>& order, const 
                                       const std::vector<uint64_t>& uses, uint32_t w) {
   uint64_t total = 0;
   for (uint64_t u : uses) total += u;
-  std::vector<uint64_t> below(w + 1, 0);  // below[b] = uses of the references < 2^b
-  size_t i = 0;
-  uint64_t acc = 0;
-  for (uint32_t b = 0; b <= w; ++b) {
-    while (i < order.size() && ref[order[i]] < (uint64_t(1) << b)) acc += uses[order[i++]];
-    below[b] = acc;
-  }
+  const std::vector<uint64_t> below = usesBelow(order, ref, uses, w);
   uint64_t best = total * w;
   std::pair<uint8_t, uint8_t> tiers{0, 0};
   for (uint32_t sw = 0; sw < w; ++sw) {
@@ -633,10 +655,125 @@ std::pair<uint8_t, uint8_t> bestTiers(const std::vector<uint32_t>& order, const 
   return tiers;
 }
 
+// With local references (the long class): the region references (of the `order` records, wr bits reach all of
+// them) are short, or short / mid with the mid class reaching all; `localUses` references are local (their width
+// is the same in every choice). Tier 0 (every reference local) when no reference goes into the region.
+std::pair<uint8_t, uint8_t> bestTiersLocal(const std::vector<uint32_t>& order,
+                                           const std::vector<uint32_t>& ref,
+                                           const std::vector<uint64_t>& uses, uint32_t wr,
+                                           uint64_t localUses) {
+  uint64_t regional = 0;
+  for (uint32_t id : order) regional += uses[id];
+  if (regional == 0) return {0, 0};
+  const uint64_t total = regional + localUses;
+  const std::vector<uint64_t> below = usesBelow(order, ref, uses, wr);
+  uint64_t best = total + regional * wr;
+  std::pair<uint8_t, uint8_t> tiers{uint8_t(wr + 1), 0};
+  for (uint32_t sw = 0; sw < wr; ++sw) {
+    const uint64_t three = total + (total - below[sw]) + below[sw] * sw + (regional - below[sw]) * wr;
+    if (three < best) {
+      best = three;
+      tiers = {uint8_t(sw + 1), uint8_t(wr + 1)};
+    }
+  }
+  return tiers;
+}
+
+// A leaf region with local leaves: short, mid and long region references as without, plus the H flags (one per
+// reference neither short nor mid); local references take no bits.
+std::pair<uint8_t, uint8_t> bestTiersLeafLocal(const std::vector<uint32_t>& order,
+                                               const std::vector<uint32_t>& ref,
+                                               const std::vector<uint64_t>& uses, uint32_t w,
+                                               uint64_t localUses) {
+  uint64_t regional = 0;
+  for (uint32_t id : order) regional += uses[id];
+  const uint64_t total = regional + localUses;
+  const std::vector<uint64_t> below = usesBelow(order, ref, uses, w);
+  uint64_t best = total + regional * w;
+  std::pair<uint8_t, uint8_t> tiers{0, 0};
+  for (uint32_t sw = 0; sw < w; ++sw) {
+    const uint64_t two = 2 * total - below[sw] + below[sw] * sw + (regional - below[sw]) * w;
+    if (two < best) {
+      best = two;
+      tiers = {uint8_t(sw + 1), 0};
+    }
+    for (uint32_t mw = sw + 1; mw < w; ++mw) {
+      const uint64_t three = total + (total - below[sw]) + (total - below[mw]) + below[sw] * sw +
+                             (below[mw] - below[sw]) * mw + (regional - below[mw]) * w;
+      if (three < best) {
+        best = three;
+        tiers = {uint8_t(sw + 1), uint8_t(mw + 1)};
+      }
+    }
+  }
+  return tiers;
+}
+
+// Places region k: with `withLocal`, the candidates (referenced once, from a node record) become local records;
+// the others are stored in the region by use (ties: first appearance), each followed by its local subtree. Sets
+// the region's references, bytes and classes; the local width (width[k]) is set by the caller.
+void placeRegion(SdagLayout& l, uint32_t k, const std::vector<uint64_t>& uses,
+                 const std::vector<uint8_t>& candidate, bool withLocal) {
+  const uint32_t h = k % 6 + 1;
+  const size_t count = uses.size();
+  l.isLocal[k].assign(count, 0);
+  uint64_t localUses = 0;
+  if (withLocal)
+    for (size_t i = 0; i < count; ++i)
+      if (candidate[i]) {
+        l.isLocal[k][i] = 1;
+        localUses += uses[i];
+      }
+  auto& order = l.order[k];
+  order.clear();
+  for (uint32_t i = 0; i < count; ++i)
+    if (!l.isLocal[k][i]) order.push_back(i);
+  std::stable_sort(order.begin(), order.end(), [&](uint32_t x, uint32_t y) { return uses[x] > uses[y]; });
+  l.ref[k].assign(count, 0);
+  uint64_t off = 0;
+  for (uint32_t i = 0; i < order.size(); ++i) {
+    l.ref[k][order[i]] = h == 1 ? i : uint32_t(off + l.pre[k][order[i]]);
+    off += l.sub[k][order[i]];
+  }
+  l.bytes[k] = off;
+  const uint32_t wr = order.empty() ? 0 : bitsFor(uint64_t(l.ref[k][order.back()]) + 1);
+  l.local[k] = withLocal ? 1 : 0;
+  l.width[k] = uint8_t(wr);
+  std::tie(l.tier[k], l.mid[k]) = !withLocal ? bestTiers(order, l.ref[k], uses, wr)
+                                  : h == 1   ? bestTiersLeafLocal(order, l.ref[k], uses, wr, localUses)
+                                             : bestTiersLocal(order, l.ref[k], uses, wr, localUses);
+}
+
+// The records of region k+1 (parents of region k's): their own bytes, and the local references of their local
+// children (byte offsets from the parent: its own bytes, then the subtrees of the local children before, in slot
+// order). Returns the largest local reference + 1 and the total bytes of the parents.
+std::pair<uint64_t, uint64_t> placeParents(SdagLayout& l, uint32_t k, const DagTables& tables) {
+  const auto& recs = tables.t[k + 1].records;
+  uint64_t reach = 0, total = 0;
+  l.own[k + 1].resize(recs.size());
+  for (size_t id = 0; id < recs.size(); ++id) {
+    const uint64_t own = sdagNodeBytes(recs[id], 16, l, k);
+    l.own[k + 1][id] = own;
+    total += own;
+    uint64_t off = own;
+    if (k % 6 != 0)  // local leaves (before the parent) need no reference
+      for (uint32_t c : recs[id])
+        if (c >= kNodeCode && l.localRec(k, c - kNodeCode)) {
+          l.ref[k][c - kNodeCode] = uint32_t(off + l.pre[k][c - kNodeCode]);
+          reach = std::max(reach, off + l.pre[k][c - kNodeCode] + 1);
+          off += l.sub[k][c - kNodeCode];
+        }
+  }
+  return {reach, total};
+}
+
 SdagLayout sdagLayout(const DagTables& tables, const std::vector<DagRoot>& roots) {
   // References to each record: from the records one height up and from the 4-way roots.
-  std::array<std::vector<uint64_t>, kSdagRegions> uses;
-  for (uint32_t k = 0; k < kSdagRegions; ++k) uses[k].assign(tables.t[k].records.size(), 0);
+  std::array<std::vector<uint64_t>, kSdagRegions> uses, rootUses;
+  for (uint32_t k = 0; k < kSdagRegions; ++k) {
+    uses[k].assign(tables.t[k].records.size(), 0);
+    rootUses[k].assign(tables.t[k].records.size(), 0);
+  }
   for (uint32_t k = 0; k < kSdagRegions; ++k)
     if (k % 6 != 0)
       for (const Key& r : tables.t[k].records)
@@ -645,28 +782,75 @@ SdagLayout sdagLayout(const DagTables& tables, const std::vector<DagRoot>& roots
   for (const DagRoot& r : roots)
     if (r.level >= 3 && r.level % 2 == 1)
       for (uint32_t c : r.children)
-        if (c >= kNodeCode) ++uses[sdagRegion(r.format, (r.level - 1) / 2)][c - kNodeCode];
+        if (c >= kNodeCode) {
+          ++uses[sdagRegion(r.format, (r.level - 1) / 2)][c - kNodeCode];
+          ++rootUses[sdagRegion(r.format, (r.level - 1) / 2)][c - kNodeCode];
+        }
+  // The 4-way roots' bytes per region of their children (part of what a region's classes cost).
+  auto rootBytes = [&](const SdagLayout& l, uint32_t k) {
+    uint64_t total = 0;
+    for (const DagRoot& r : roots)
+      if (r.level >= 3 && r.level % 2 == 1 && sdagRegion(r.format, (r.level - 1) / 2) == k) {
+        Key key{};
+        for (uint32_t c = 0; c < 4; ++c) key[c] = r.children[c];
+        total += sdagNodeBytes(key, 4, l, k);
+      }
+    return total;
+  };
   SdagLayout l;
   for (Format f : {Format::TwoState, Format::FourState}) {
     const uint32_t b = bitsPerState(f);
     for (uint32_t h = 1; h <= 6; ++h) {
       const uint32_t k = sdagRegion(f, h);
       const auto& recs = tables.t[k].records;
-      auto& order = l.order[k];
-      order.resize(recs.size());
-      for (uint32_t i = 0; i < recs.size(); ++i) order[i] = i;
-      std::stable_sort(order.begin(), order.end(),
-                       [&](uint32_t x, uint32_t y) { return uses[k][x] > uses[k][y]; });
-      l.ref[k].assign(recs.size(), 0);
-      uint64_t off = 0;
-      for (uint32_t i = 0; i < recs.size(); ++i) {
-        const uint32_t id = order[i];
-        l.ref[k][id] = h == 1 ? i : uint32_t(off);
-        off += h == 1 ? 2 * b : sdagNodeBytes(recs[id], 16, l, k - 1);
+      // Own and subtree bytes (region k-1 is placed and its local references are set).
+      l.own[k].resize(recs.size());
+      l.sub[k].resize(recs.size());
+      l.pre[k].assign(recs.size(), 0);
+      for (size_t id = 0; id < recs.size(); ++id) {
+        l.own[k][id] = h == 1 ? 2 * b : l.own[k][id];
+        if (h > 1)
+          for (uint32_t c : recs[id])
+            if (c >= kNodeCode && l.localRec(k - 1, c - kNodeCode)) {
+              if (h == 2)
+                l.pre[k][id] += 2 * b;
+              else
+                l.sub[k][id] += l.sub[k - 1][c - kNodeCode];
+            }
+        l.sub[k][id] += l.pre[k][id] + l.own[k][id];
       }
-      l.bytes[k] = off;
-      l.width[k] = uint8_t(recs.empty() ? 0 : bitsFor(uint64_t(l.ref[k][order.back()]) + 1));
-      std::tie(l.tier[k], l.mid[k]) = bestTiers(order, l.ref[k], uses[k], l.width[k]);
+      std::vector<uint8_t> candidate(recs.size(), 0);
+      bool any = false;
+      for (size_t id = 0; id < recs.size(); ++id) {
+        candidate[id] = h < 6 && uses[k][id] == 1 && rootUses[k][id] == 0;
+        any = any || candidate[id];
+      }
+      if (h == 6) {
+        placeRegion(l, k, uses[k], candidate, false);
+        continue;
+      }
+      // Without local records, then with (the local width grown until it reaches every local reference);
+      // the smaller parents (records one height up and 4-way roots) win, ties without.
+      placeRegion(l, k, uses[k], candidate, false);
+      const uint64_t plain = placeParents(l, k, tables).second + rootBytes(l, k);
+      if (!any) continue;
+      placeRegion(l, k, uses[k], candidate, true);
+      uint8_t lw = h == 1 ? l.width[k] : 0;  // leaves: the width of long references (local ones take none)
+      uint64_t withLocal = 0;
+      for (;;) {
+        l.width[k] = lw;
+        const auto [reach, total] = placeParents(l, k, tables);
+        const uint32_t need = h == 1 ? lw : bitsFor(reach);
+        if (need <= lw) {
+          withLocal = total + rootBytes(l, k);
+          break;
+        }
+        lw = uint8_t(need);
+      }
+      if (withLocal >= plain) {
+        placeRegion(l, k, uses[k], candidate, false);
+        placeParents(l, k, tables);
+      }
     }
   }
   return l;
@@ -679,11 +863,8 @@ uint64_t sdagRootBytes(const DagRoot& r, const SdagLayout& l) {
   return sdagNodeBytes(k, 4, l, sdagRegion(r.format, (r.level - 1) / 2));
 }
 
-uint64_t sdagRecordBytes(uint32_t region, uint32_t id, const DagTables& tables, const SdagLayout& l) {
-  const uint32_t h = region % 6 + 1;
-  const Format f = region < 6 ? Format::TwoState : Format::FourState;
-  if (h == 1) return 2 * bitsPerState(f);
-  return sdagNodeBytes(tables.t[region].records[id], 16, l, region - 1);
+uint64_t sdagRecordBytes(uint32_t region, uint32_t id, const DagTables&, const SdagLayout& l) {
+  return l.own[region][id];
 }
 
 void putLeaf(BitWriter& out, uint32_t packed, uint32_t b) {
@@ -705,6 +886,10 @@ void putSdagNode(BitWriter& out, const Key& k, uint32_t slots, const SdagLayout&
     for (uint32_t s = 0; s < slots; ++s)
       if (k[s] >= kNodeCode && !l.isShort(below, k[s] - kNodeCode))
         out.put(l.isMid(below, k[s] - kNodeCode) ? 1 : 0, 1);
+  if (l.hFlags(below))
+    for (uint32_t s = 0; s < slots; ++s)
+      if (k[s] >= kNodeCode && !l.isShort(below, k[s] - kNodeCode) && !l.isMid(below, k[s] - kNodeCode))
+        out.put(l.localRec(below, k[s] - kNodeCode) ? 1 : 0, 1);
   for (uint32_t s = 0; s < slots; ++s)
     if (k[s] >= kNodeCode) out.put(l.ref[below][k[s] - kNodeCode], l.refBits(below, k[s] - kNodeCode));
   out.padToByte();
@@ -714,6 +899,28 @@ struct DagMapOut {
   MapKind kind = MapKind::Flat;
   std::vector<uint8_t> blob;  // non-DAG kinds
 };
+
+// A record of region k, then its local children's subtrees in slot order (pre-order); at[k][id] = its offset.
+void putSdagSubtree(BitWriter& out, const DagTables& tables, const SdagLayout& l, uint32_t k, uint32_t id,
+                    std::array<std::vector<uint32_t>, kSdagRegions>& at) {
+  const uint32_t h = k % 6 + 1, b = k < 6 ? 1 : 2;
+  const Key& r = tables.t[k].records[id];
+  if (h == 1) {
+    at[k][id] = uint32_t(out.bits() / 8);
+    putLeaf(out, r[0], b);
+    return;
+  }
+  if (h == 2)  // local leaves before their parent
+    for (uint32_t c : r)
+      if (c >= kNodeCode && l.localRec(k - 1, c - kNodeCode))
+        putSdagSubtree(out, tables, l, k - 1, c - kNodeCode, at);
+  at[k][id] = uint32_t(out.bits() / 8);
+  putSdagNode(out, r, 16, l, k - 1);
+  if (h > 2)
+    for (uint32_t c : r)
+      if (c >= kNodeCode && l.localRec(k - 1, c - kNodeCode))
+        putSdagSubtree(out, tables, l, k - 1, c - kNodeCode, at);
+}
 
 // Emits an sdag data buffer: directory, regions, then the other area (odd and level-0/1 roots, blobs of the
 // non-DAG maps) in map order. offsets[m] = the map's descriptor offset.
@@ -728,6 +935,7 @@ std::vector<uint8_t> emitSdag(const DagTables& tables, const std::vector<DagRoot
     dir.width[k] = l.width[k];
     dir.tier[k] = l.tier[k];
     dir.mid[k] = l.mid[k];
+    dir.local[k] = l.local[k];
     base += l.bytes[k];
   }
   dir.base[kSdagRegions] = uint32_t(base);
@@ -735,21 +943,12 @@ std::vector<uint8_t> emitSdag(const DagTables& tables, const std::vector<DagRoot
   for (uint32_t k = 0; k < kSdagRegions; ++k) out.put(dir.width[k], 8);
   for (uint32_t k = 0; k < kSdagRegions; ++k) out.put(dir.tier[k], 8);
   for (uint32_t k = 0; k < kSdagRegions; ++k) out.put(dir.mid[k], 8);
+  for (uint32_t k = 0; k < kSdagRegions; ++k) out.put(dir.local[k], 8);
   out.put(0, 32);
-  out.put(0, 32);
-  for (Format f : {Format::TwoState, Format::FourState}) {
-    const uint32_t b = bitsPerState(f);
-    for (uint32_t h = 1; h <= 6; ++h) {
-      const uint32_t k = sdagRegion(f, h);
-      for (uint32_t id : l.order[k]) {
-        const Key& r = tables.t[k].records[id];
-        if (h == 1)
-          putLeaf(out, r[0], b);
-        else
-          putSdagNode(out, r, 16, l, k - 1);
-      }
-    }
-  }
+  std::array<std::vector<uint32_t>, kSdagRegions> at;
+  for (uint32_t k = 0; k < kSdagRegions; ++k) at[k].assign(tables.t[k].records.size(), 0);
+  for (uint32_t k = 0; k < kSdagRegions; ++k)
+    for (uint32_t id : l.order[k]) putSdagSubtree(out, tables, l, k, id, at);
   offsets.assign(roots.size(), 0);
   for (size_t m = 0; m < roots.size(); ++m) {
     const DagRoot& r = roots[m];
@@ -758,13 +957,11 @@ std::vector<uint8_t> emitSdag(const DagTables& tables, const std::vector<DagRoot
       for (uint8_t byte : kinds[m].blob) out.put(byte, 8);
       continue;
     }
-    const uint32_t b = bitsPerState(r.format);
     if (r.level <= 1) {
       offsets[m] = uint32_t(out.bits() / 8);
       out.put(r.byte, 8);
     } else if (r.level % 2 == 0) {
-      const uint32_t h = r.level / 2, k = sdagRegion(r.format, h);
-      offsets[m] = dir.base[k] + (h == 1 ? l.ref[k][r.id] * 2 * b : l.ref[k][r.id]);
+      offsets[m] = at[sdagRegion(r.format, r.level / 2)][r.id];
     } else {
       offsets[m] = uint32_t(out.bits() / 8);
       Key k{};
@@ -852,13 +1049,13 @@ void sdagFill(const uint8_t* data, const SdagDirectory& dir, const uint8_t* p, F
     return;
   }
   const uint32_t mbits = slots, m = slots == 16 ? load16(p) : p[0] & 15u;
-  const uint32_t k = sdagRegion(f, h), n = popcount64(m), w = dir.width[k], t = dir.tier[k], u = dir.mid[k];
+  const uint32_t k = sdagRegion(f, h), n = popcount64(m);
   const uint64_t span = uint64_t(1) << (4 * h);
   uint32_t ui = 0, ni = 0;
   for (uint32_t s = 0; s < slots; ++s) {
     if ((m >> s) & 1u) {
-      const uint32_t ref = sdagRef(p, mbits + (slots - n), n, ni++, w, t, u);
-      const uint8_t* c = sdagChild(data, dir, f, h, ref);
+      const uint8_t* c = data + sdagChildAt(dir, p, uint32_t(p - data), mbits + (slots - n), n, ni++, k,
+                                            h == 1 ? 2 * bitsPerState(f) : 0u);
       if (h == 1)
         sdagFill(data, dir, c, f, 0, 16, start + s * span, out);
       else
@@ -896,13 +1093,23 @@ struct SdagChecker {
   std::array<std::vector<bool>, kSdagRegions> seen{};
 
   uint64_t regionBytes(uint32_t k) const { return uint64_t(dir.base[k + 1]) - dir.base[k]; }
-  bool child(Format f, uint32_t h, uint64_t ref) {
-    const uint32_t k = sdagRegion(f, h);
-    if (h == 1) return ref < regionBytes(k) / (2 * bitsPerState(f));
-    return node(f, h, ref);
+  uint64_t end() const { return dir.base[kSdagRegions]; }
+  // The child of height h that reference r of the record at `at` (of `bytes` bytes) refers to: a region
+  // reference inside its region, a local one after the record and inside the regions.
+  bool child(Format f, uint32_t h, uint64_t at, uint64_t bytes, SdagRefClass r) {
+    const uint32_t k = sdagRegion(f, h), leaf = 2 * bitsPerState(f);
+    if (h == 1 && dir.local[k] != 0 && r.isLong != 0)  // a local leaf, before the record
+      return at >= dir.base[0] + uint64_t(r.ref) * leaf;
+    if (h > 1 && (r.isLong & dir.local[k]) != 0) {
+      if (r.ref < bytes || at + r.ref >= end()) return false;
+      return h == 1 ? end() - (at + r.ref) >= leaf : node(f, h, at + r.ref);
+    }
+    if (h == 1) return r.ref < regionBytes(k) / leaf;
+    return r.ref < regionBytes(k) && node(f, h, dir.base[k] + uint64_t(r.ref));
   }
-  // A record of `slots` children of height h at p with `avail` bytes.
-  bool record(const uint8_t* p, uint64_t avail, Format f, uint32_t h, uint32_t slots) {
+  // A record of `slots` children of height h at byte `at` with `avail` bytes.
+  bool record(uint64_t at, uint64_t avail, Format f, uint32_t h, uint32_t slots) {
+    const uint8_t* p = data + at;
     if (avail < (slots == 16 ? 2u : 1u)) return false;
     const uint32_t m = slots == 16 ? load16(p) : p[0] & 15u, n = popcount64(m);
     if (h == 0 && m != 0) return false;
@@ -911,34 +1118,41 @@ struct SdagChecker {
     const uint32_t pos = slots + (slots - n);
     if ((pos + (t != 0 ? n : 0) + 7) / 8 > avail) return false;                                    // F
     if (u != 0 && (pos + n + (n - popcount64(getBits(p, pos, n))) + 7) / 8 > avail) return false;  // G
-    if ((pos + uint64_t(sdagRefBits(p, pos, n, w, t, u)) + 7) / 8 > avail) return false;
+    const bool hf = h == 1 && dir.local[k] != 0;  // H flags (a leaf region with local leaves)
+    if (hf) {
+      const uint32_t s = t != 0 ? popcount64(getBits(p, pos, n)) : 0;
+      const uint32_t g = u != 0 ? popcount64(getBits(p, pos + n, n - s)) : 0;
+      if ((pos + (t != 0 ? n : 0) + (u != 0 ? n - s : 0) + (n - s - g) + 7) / 8 > avail) return false;  // H
+    }
+    const uint64_t bytes = (pos + uint64_t(sdagRefBits(p, pos, n, w, t, u, hf)) + 7) / 8;
+    if (bytes > avail) return false;
     for (uint32_t i = 0; i < n; ++i)
-      if (!child(f, h, sdagRef(p, pos, n, i, w, t, u))) return false;
+      if (!child(f, h, at, bytes,
+                 hf ? sdagLeafRefClass(p, pos, n, i, w, t, u) : sdagRefClass(p, pos, n, i, w, t, u)))
+        return false;
     return true;
   }
-  bool node(Format f, uint32_t h, uint64_t off) {
+  // A node record of height h at byte `at` (in the regions).
+  bool node(Format f, uint32_t h, uint64_t at) {
     const uint32_t k = sdagRegion(f, h);
-    const uint64_t size = regionBytes(k);
-    if (off >= size) return false;
-    if (seen[k].empty()) seen[k].resize(size, false);
-    if (seen[k][off]) return true;
-    if (!record(data + dir.base[k] + off, size - off, f, h - 1, 16)) return false;
-    seen[k][off] = true;
+    if (at < dir.base[0] || at >= end()) return false;
+    if (seen[k].empty()) seen[k].resize(end(), false);
+    if (seen[k][at]) return true;
+    if (!record(at, end() - at, f, h - 1, 16)) return false;
+    seen[k][at] = true;
     return true;
   }
   Status root(uint32_t offset, uint32_t level, Format f) {
     if (offset >= dataBytes) return corrupt("sdag root past the data buffer");
     if (level <= 1) return Ok{};
     if (level % 2 == 0) {
-      const uint32_t h = level / 2, k = sdagRegion(f, h);
-      if (offset < dir.base[k] || offset >= dir.base[k + 1]) return corrupt("sdag root outside its region");
-      if (h == 1 ? !child(f, 1, (offset - dir.base[k]) / (2 * bitsPerState(f))) ||
-                       (offset - dir.base[k]) % (2 * bitsPerState(f)) != 0
-                 : !node(f, h, offset - dir.base[k]))
+      const uint32_t h = level / 2;
+      if (offset < dir.base[0] || offset >= end()) return corrupt("sdag root outside the regions");
+      if (h == 1 ? end() - offset < 2 * bitsPerState(f) : !node(f, h, offset))
         return corrupt("sdag tree is malformed (record or reference out of range)");
       return Ok{};
     }
-    if (!record(data + offset, dataBytes - offset, f, (level - 1) / 2, 4))
+    if (!record(offset, dataBytes - offset, f, (level - 1) / 2, 4))
       return corrupt("sdag 4-way root is malformed");
     return Ok{};
   }
@@ -1026,13 +1240,20 @@ uint64_t newIdentity() {
   return next.fetch_add(1, std::memory_order_relaxed);
 }
 
-constexpr uint32_t kMagic = 0x434e4553;  // "SENC"
-constexpr uint8_t kVersion = 1;          // arrays without the sdag directory
-constexpr uint8_t kVersionTiers = 2;     // the old sdag layout: directory with tiers, 16/32-bit index buffer
-constexpr uint8_t kVersionTwoBitUniform = 3;  // the old sdag layout: 2-bit uniform states (4-state)
-constexpr uint8_t kVersionPlainIndex =
-    4;  // the old sdag layout: 80-byte directory, no rank-packed index buffer
-constexpr uint8_t kVersionDirectory = 5;  // arrays with it (directory with tiers + the packed index buffer)
+constexpr uint32_t kMagic = 0x434e4553;   // "SENC"
+constexpr uint8_t kVersion = 1;           // arrays without the sdag directory
+constexpr uint8_t kVersionDirectory = 6;  // arrays with it (104-byte directory with local references)
+// Retired layouts of arrays with the sdag directory: refused with what they were.
+struct RetiredVersion {
+  uint8_t version;
+  const char* what;
+};
+constexpr RetiredVersion kRetiredVersions[] = {
+    {2, "the sdag layout with a 16/32-bit index buffer"},
+    {3, "the sdag layout with 2-bit uniform states"},
+    {4, "the sdag layout with the 80-byte directory and no rank-packed index buffer"},
+    {5, "the sdag layout with the 96-byte directory, without local references"},
+};
 
 }  // namespace
 
@@ -1351,23 +1572,11 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
   if (bytes.size() < encode::kArrayHeaderBytes) return bad("encoded array header is truncated");
   const uint8_t* p = bytes.data();
   if (getU32(p) != kMagic) return bad("not an encoded micromap array (bad magic)");
-  if (p[4] == kVersionTiers)
-    return makeError(
-        ErrorCode::UnsupportedFormat,
-        prefix +
-            "encoded array version 2 (the sdag layout with a 16/32-bit index buffer) is no longer "
-            "supported (encode the micromaps again)");
-  if (p[4] == kVersionTwoBitUniform)
-    return makeError(ErrorCode::UnsupportedFormat,
-                     prefix +
-                         "encoded array version 3 (the sdag layout with 2-bit uniform states) is no longer "
-                         "supported (encode the micromaps again)");
-  if (p[4] == kVersionPlainIndex)
-    return makeError(
-        ErrorCode::UnsupportedFormat,
-        prefix +
-            "encoded array version 4 (the sdag layout with the 80-byte directory and no rank-packed index "
-            "buffer) is no longer supported (encode the micromaps again)");
+  for (const RetiredVersion& r : kRetiredVersions)
+    if (p[4] == r.version)
+      return makeError(ErrorCode::UnsupportedFormat,
+                       prefix + "encoded array version " + std::to_string(r.version) + " (" + r.what +
+                           ") is no longer supported (encode the micromaps again)");
   if (p[4] != kVersion && p[4] != kVersionDirectory)
     return makeError(ErrorCode::UnsupportedFormat,
                      prefix + "encoded array version " + std::to_string(p[4]) + " is not supported");
@@ -1377,7 +1586,7 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
                          "encoded array version 1 with the old sdag layout is no longer supported "
                          "(encode the micromaps again)");
   if (p[4] == kVersionDirectory && (p[7] & 1) != 1)
-    return bad("encoded array version 5 without the sdag directory");
+    return bad("encoded array version 6 without the sdag directory");
   if (p[5] >= kEncodingCount) return bad("unknown encoding id " + std::to_string(p[5]));
   const bool packed = p[4] == kVersionDirectory;
   if (!packed && p[6] != 2 && p[6] != 4) return bad("index size must be 2 or 4 bytes");
@@ -1471,18 +1680,22 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
     for (uint32_t k = 0; k < encode::kSdagRegions; ++k) out.dir_.width[k] = data[52 + k];
     for (uint32_t k = 0; k < encode::kSdagRegions; ++k) out.dir_.tier[k] = data[64 + k];
     for (uint32_t k = 0; k < encode::kSdagRegions; ++k) out.dir_.mid[k] = data[76 + k];
-    if (getU32(data + 88) != 0 || getU32(data + 92) != 0)
-      return bad("sdag directory's reserved bytes are not zero");
+    for (uint32_t k = 0; k < encode::kSdagRegions; ++k) out.dir_.local[k] = data[88 + k];
+    if (getU32(data + 100) != 0) return bad("sdag directory's reserved bytes are not zero");
     if (out.dir_.base[0] != encode::kSdagDirectoryBytes || out.dir_.base[encode::kSdagRegions] > dataBytes)
       return bad("sdag directory regions exceed the data buffer");
-    for (uint32_t k = 0; k < encode::kSdagRegions; ++k)
-      if (out.dir_.base[k + 1] < out.dir_.base[k] || out.dir_.width[k] > 32 ||
-          out.dir_.tier[k] > out.dir_.width[k] ||
-          (out.dir_.mid[k] != 0 && (out.dir_.tier[k] == 0 || out.dir_.mid[k] <= out.dir_.tier[k] ||
-                                    out.dir_.mid[k] > out.dir_.width[k])))
+    for (uint32_t k = 0; k < encode::kSdagRegions; ++k) {
+      // Without local references the short and mid classes are narrower than the long one; with them, the long
+      // class is local and the short / mid classes may be up to 32 bits.
+      const encode::SdagDirectory& d = out.dir_;
+      const uint32_t top = d.local[k] != 0 ? 33 : d.width[k];
+      if (d.base[k + 1] < d.base[k] || d.width[k] > 32 || d.local[k] > 1 || d.tier[k] > top ||
+          (d.mid[k] != 0 && (d.tier[k] == 0 || d.mid[k] <= d.tier[k] || d.mid[k] > top)))
         return bad(
-            "sdag directory is inconsistent (regions out of order, reference width above 32, tier above the "
-            "width, or mid not between the tier and the width)");
+            "sdag directory is inconsistent (regions out of order, reference width above 32, local flag "
+            "above 1, "
+            "tier above the width, or mid not between the tier and the width)");
+    }
   }
   encode::SdagChecker sdag{data, dataBytes, out.dir_};
   encode::CsmChecker csm{data, dataBytes};

@@ -530,26 +530,27 @@ TEST(EncodeDag, WorkedExampleLayouts) {
   EXPECT_EQ(csm.maps()[0].offset, 4u);
   EXPECT_EQ(csm.maps()[0].kind, MapKind::Csm);
   const EncodedArray sdag = EncodedArray::build(a, Encoding::Sdag).value();
-  ASSERT_EQ(sdag.dataBytes(), 99u);
+  ASSERT_EQ(sdag.dataBytes(), 107u);
   EXPECT_TRUE(sdag.hasDirectory());
-  EXPECT_EQ(sdag.directory().base[0], 96u);
-  for (uint32_t k = 1; k <= encode::kSdagRegions; ++k) EXPECT_EQ(sdag.directory().base[k], 98u);
+  EXPECT_EQ(sdag.directory().base[0], 104u);
+  for (uint32_t k = 1; k <= encode::kSdagRegions; ++k) EXPECT_EQ(sdag.directory().base[k], 106u);
   for (uint32_t k = 0; k < encode::kSdagRegions; ++k) EXPECT_EQ(sdag.directory().width[k], 0u);
   for (uint32_t k = 0; k < encode::kSdagRegions; ++k) EXPECT_EQ(sdag.directory().tier[k], 0u);
-  EXPECT_EQ(sdag.data()[0], 96u);
-  EXPECT_EQ(sdag.data()[4], 98u);
-  EXPECT_EQ(sdag.data()[96], 0xff);
-  EXPECT_EQ(sdag.data()[97], 0x00);
-  EXPECT_EQ(sdag.data()[98], 0x2c);
+  for (uint32_t k = 0; k < encode::kSdagRegions; ++k) EXPECT_EQ(sdag.directory().local[k], 0u);
+  EXPECT_EQ(sdag.data()[0], 104u);
+  EXPECT_EQ(sdag.data()[4], 106u);
+  EXPECT_EQ(sdag.data()[104], 0xff);
+  EXPECT_EQ(sdag.data()[105], 0x00);
+  EXPECT_EQ(sdag.data()[106], 0x2c);
   EXPECT_EQ(sdag.serialize()[4],
-            5u);  // arrays with the directory (and the packed index buffer) are version 5
+            6u);  // arrays with the directory (and the packed index buffer) are version 6
   EXPECT_EQ(sdag.serialize()[7], 1u);  // the directory; the index buffer is not rank-packed (5 triangles)
   EXPECT_EQ(sdag.serialize()[6], 3u);  // one map: k = bits for 0 .. 1 + 3
   // triangles 0..4 → map 0, then -1..-4 as 7, 6, 5, 4 (3 bits each): 0x4bb8
   EXPECT_EQ(sdag.serialize()[20], 0xb8);
   EXPECT_EQ(sdag.serialize()[21], 0x4b);
-  EXPECT_EQ(sdag.byteSize(), 20u + 2u + 8u + 99u + 8u);
-  EXPECT_EQ(sdag.maps()[0].offset, 98u);
+  EXPECT_EQ(sdag.byteSize(), 20u + 2u + 8u + 107u + 8u);
+  EXPECT_EQ(sdag.maps()[0].offset, 106u);
   EXPECT_EQ(sdag.maps()[0].kind, MapKind::Sdag);
   for (uint32_t i = 0; i < 64; ++i) {
     EXPECT_EQ(csm.state(0, i), m.get(i)) << i;
@@ -562,24 +563,27 @@ TEST(EncodeDag, WorkedExampleTieredReferences) {
   Micromap m(4, Format::TwoState);
   const uint32_t leaf[4] = {0x00ff, 0x0f0f, 0x3333, 0x5555};
   for (uint32_t i = 0; i < 256; ++i) {
-    const uint32_t slot = i >> 4, v = leaf[slot < 13 ? 0 : slot - 12];
+    const uint32_t slot = i >> 4, v = leaf[slot < 10 ? 0 : (slot - 8) / 2];
     m.set(i, (v >> (i & 15)) & 1u ? State::Opaque : State::Transparent);
   }
   const EncodedArray sdag = EncodedArray::build(arrayOf({m}), Encoding::Sdag).value();
   const std::vector<uint8_t> regions{0xff, 0x00, 0x0f, 0x0f, 0x33, 0x33, 0x55,
-                                     0x55, 0xff, 0xff, 0xff, 0x1f, 0x39};
-  ASSERT_EQ(sdag.dataBytes(), 109u);
-  EXPECT_EQ(std::vector<uint8_t>(sdag.data().begin() + 96, sdag.data().begin() + 109), regions);
+                                     0x55, 0xff, 0xff, 0xff, 0x03, 0xa5, 0x0f};
+  ASSERT_EQ(sdag.dataBytes(), 118u);
+  EXPECT_EQ(std::vector<uint8_t>(sdag.data().begin() + 104, sdag.data().begin() + 118), regions);
   const encode::SdagDirectory& dir = sdag.directory();
-  EXPECT_EQ(dir.base[0], 96u);
-  EXPECT_EQ(dir.base[1], 104u);
-  for (uint32_t k = 2; k <= encode::kSdagRegions; ++k) EXPECT_EQ(dir.base[k], 109u);
+  EXPECT_EQ(dir.base[0], 104u);
+  EXPECT_EQ(dir.base[1], 112u);
+  for (uint32_t k = 2; k <= encode::kSdagRegions; ++k) EXPECT_EQ(dir.base[k], 118u);
   EXPECT_EQ(dir.width[0], 2u);
-  EXPECT_EQ(dir.tier[0], 1u);  // short references: 0 bits (the leaf used 13 times)
+  EXPECT_EQ(dir.tier[0], 1u);  // short references: 0 bits (the leaf used 10 times)
+  EXPECT_EQ(dir.mid[0], 0u);
   for (uint32_t k = 1; k < encode::kSdagRegions; ++k) EXPECT_EQ(dir.width[k] + dir.tier[k], 0u);
-  EXPECT_EQ(sdag.maps()[0].offset, 104u);
-  EXPECT_EQ(sdag.state(0, 213), State::Transparent);
+  for (uint32_t k = 0; k < encode::kSdagRegions; ++k) EXPECT_EQ(dir.local[k], 0u);  // no leaf is used once
+  EXPECT_EQ(sdag.maps()[0].offset, 112u);
+  EXPECT_EQ(sdag.state(0, 213), State::Opaque);
   EXPECT_EQ(sdag.state(0, 100), State::Opaque);
+  EXPECT_EQ(sdag.state(0, 172), State::Transparent);
   for (uint32_t i = 0; i < 256; ++i) EXPECT_EQ(sdag.state(0, i), m.get(i)) << i;
   // A version-1 array with the directory (the old 64-byte layout) is refused clearly.
   std::vector<uint8_t> bytes = sdag.serialize();
@@ -588,24 +592,59 @@ TEST(EncodeDag, WorkedExampleTieredReferences) {
   ASSERT_FALSE(old);
   EXPECT_EQ(old.error().code, ErrorCode::UnsupportedFormat);
   EXPECT_NE(old.error().message.find("old sdag layout"), std::string::npos) << old.error().message;
-  // Version 2 (the tiered directory with a 16/32-bit index buffer) is refused clearly too.
-  bytes[4] = 2;
-  const auto v2 = EncodedArray::parse(bytes, "v2.somm");
-  ASSERT_FALSE(v2);
-  EXPECT_EQ(v2.error().code, ErrorCode::UnsupportedFormat);
-  EXPECT_NE(v2.error().message.find("version 2"), std::string::npos) << v2.error().message;
-  // Version 3 (2-bit uniform states in 4-state records) is refused clearly too.
-  bytes[4] = 3;
-  const auto v3 = EncodedArray::parse(bytes, "v3.somm");
-  ASSERT_FALSE(v3);
-  EXPECT_EQ(v3.error().code, ErrorCode::UnsupportedFormat);
-  EXPECT_NE(v3.error().message.find("version 3"), std::string::npos) << v3.error().message;
-  // Version 4 (no rank-packed index buffer) is refused clearly too.
-  bytes[4] = 4;
-  const auto v4 = EncodedArray::parse(bytes, "v4.somm");
-  ASSERT_FALSE(v4);
-  EXPECT_EQ(v4.error().code, ErrorCode::UnsupportedFormat);
-  EXPECT_NE(v4.error().message.find("version 4"), std::string::npos) << v4.error().message;
+  // Versions 2..5 (the retired sdag layouts) are refused clearly too, naming the version and what to do.
+  for (uint8_t v : {2, 3, 4, 5}) {
+    bytes[4] = v;
+    const auto r = EncodedArray::parse(bytes, "old.somm");
+    ASSERT_FALSE(r) << int(v);
+    EXPECT_EQ(r.error().code, ErrorCode::UnsupportedFormat);
+    EXPECT_NE(r.error().message.find("version " + std::to_string(v) + " ("), std::string::npos)
+        << r.error().message;
+    EXPECT_NE(r.error().message.find("encode the micromaps again"), std::string::npos) << r.error().message;
+    EXPECT_EQ(r.error().message.find('\n'), std::string::npos);
+  }
+  bytes[4] = 5;
+  EXPECT_NE(EncodedArray::parse(bytes).error().message.find("96-byte directory, without local references"),
+            std::string::npos);
+}
+
+// docs/encodings.md's worked example with local leaves: slots 0..12 hold the leaf 0x00ff, slots 13, 14, 15 the
+// leaves 0x0f0f, 0x3333, 0x5555, each used once: they are stored right before the root and take no reference bits.
+TEST(EncodeDag, WorkedExampleLocalLeaves) {
+  Micromap m(4, Format::TwoState);
+  const uint32_t leaf[4] = {0x00ff, 0x0f0f, 0x3333, 0x5555};
+  for (uint32_t i = 0; i < 256; ++i) {
+    const uint32_t slot = i >> 4, v = leaf[slot < 13 ? 0 : slot - 12];
+    m.set(i, (v >> (i & 15)) & 1u ? State::Opaque : State::Transparent);
+  }
+  const EncodedArray sdag = EncodedArray::build(arrayOf({m}), Encoding::Sdag).value();
+  const std::vector<uint8_t> regions{0xff, 0x00, 0x0f, 0x0f, 0x33, 0x33, 0x55, 0x55, 0xff, 0xff, 0x00, 0xe0};
+  ASSERT_EQ(sdag.dataBytes(), 116u);
+  EXPECT_EQ(std::vector<uint8_t>(sdag.data().begin() + 104, sdag.data().begin() + 116), regions);
+  const encode::SdagDirectory& dir = sdag.directory();
+  EXPECT_EQ(dir.base[0], 104u);
+  EXPECT_EQ(dir.base[1], 106u);
+  for (uint32_t k = 2; k <= encode::kSdagRegions; ++k) EXPECT_EQ(dir.base[k], 116u);
+  EXPECT_EQ(dir.local[0], 1u);
+  EXPECT_EQ(dir.width[1], 3u);  // the root's reference in its region is 6 (after its local leaves); unused
+  for (uint32_t k = 0; k < encode::kSdagRegions; ++k)
+    EXPECT_EQ(dir.width[k] + dir.tier[k] + dir.mid[k], k == 1 ? 3u : 0u) << k;
+  for (uint32_t k = 1; k < encode::kSdagRegions; ++k) EXPECT_EQ(dir.local[k], 0u);
+  EXPECT_EQ(sdag.data()[88], 1u);
+  EXPECT_EQ(sdag.maps()[0].offset, 112u);
+  EXPECT_EQ(sdag.state(0, 213), State::Transparent);  // local leaf 0 of 3: 3·2 bytes before the root, 0x0f0f
+  EXPECT_EQ(sdag.state(0, 100), State::Opaque);       // leaf 0 (0 bits) of region (1, 1)
+  EXPECT_EQ(sdag.state(0, 250), State::Opaque);       // local leaf 2: 2 bytes before the root, 0x5555
+  for (uint32_t i = 0; i < 256; ++i) EXPECT_EQ(sdag.state(0, i), m.get(i)) << i;
+  const std::vector<uint8_t> bytes = sdag.serialize();
+  EXPECT_EQ(EncodedArray::parse(bytes).value(), sdag);
+  // A local leaf before the first region: H of slots 0..3 set (7 local leaves, the first 14 bytes before the
+  // root, inside the directory) is refused.
+  std::vector<uint8_t> bad = bytes;
+  const size_t data = 20 + sdag.indexBufferBytes() + 8 * sdag.mapCount();
+  bad[data + 112 + 2] = 0x0f;
+  const auto r = EncodedArray::parse(bad);
+  EXPECT_FALSE(r);
 }
 
 // docs/encodings.md's third worked example: 4-state uniform children take 1 bit; a uniformly unknown child is a
@@ -617,15 +656,16 @@ TEST(EncodeDag, WorkedExampleUnknownUniformChild) {
   for (uint32_t i = 32; i < 48; ++i) m.set(i, State(i % 4));
   const EncodedArray sdag = EncodedArray::build(arrayOf({m}), Encoding::Sdag).value();
   const std::vector<uint8_t> regions{0xff, 0xff, 0xff, 0xff, 0xe4, 0xe4, 0xe4, 0xe4, 0x05, 0x00, 0x01, 0x80};
-  ASSERT_EQ(sdag.dataBytes(), 108u);
-  EXPECT_EQ(std::vector<uint8_t>(sdag.data().begin() + 96, sdag.data().begin() + 108), regions);
+  ASSERT_EQ(sdag.dataBytes(), 116u);
+  EXPECT_EQ(std::vector<uint8_t>(sdag.data().begin() + 104, sdag.data().begin() + 116), regions);
   const encode::SdagDirectory& dir = sdag.directory();
-  for (uint32_t k = 0; k <= 6; ++k) EXPECT_EQ(dir.base[k], 96u);
-  EXPECT_EQ(dir.base[7], 104u);
-  for (uint32_t k = 8; k <= encode::kSdagRegions; ++k) EXPECT_EQ(dir.base[k], 108u);
+  for (uint32_t k = 0; k <= 6; ++k) EXPECT_EQ(dir.base[k], 104u);
+  EXPECT_EQ(dir.base[7], 112u);
+  for (uint32_t k = 8; k <= encode::kSdagRegions; ++k) EXPECT_EQ(dir.base[k], 116u);
   EXPECT_EQ(dir.width[6], 1u);
   EXPECT_EQ(dir.tier[6], 0u);
-  EXPECT_EQ(sdag.maps()[0].offset, 104u);
+  EXPECT_EQ(dir.local[6], 0u);
+  EXPECT_EQ(sdag.maps()[0].offset, 112u);
   EXPECT_EQ(sdag.state(0, 5), State::UnknownOpaque);
   EXPECT_EQ(sdag.state(0, 20), State::Opaque);
   EXPECT_EQ(sdag.state(0, 39), State::UnknownOpaque);
@@ -694,7 +734,7 @@ TEST(EncodeDag, RankPackedIndexBuffer) {
   ASSERT_EQ(e.indexBufferBytes(), 34u);  // 4 group words + 5 entries of 3 bits (plain: 300 bits = 38 bytes)
   EXPECT_EQ(packedIndexBufferBytes(arr.indices, 2), 34u);
   const std::vector<uint8_t> bytes = e.serialize();
-  EXPECT_EQ(bytes[4], 5u);
+  EXPECT_EQ(bytes[4], 6u);
   EXPECT_EQ(bytes[7], 3u);  // the directory + the rank-packed index buffer
   const std::vector<uint8_t> index{
       0x00, 0x00, 0x00, 0x00, 0x02, 0x00, 0x00, 0x00,  // group 0: 0 listed before, triangle 1
@@ -758,7 +798,7 @@ TEST(EncodeDag, MidReferenceClass) {
   ASSERT_NE(dir.mid[k], 0u);
   EXPECT_GT(dir.mid[k], dir.tier[k]);
   EXPECT_GT(dir.tier[k], 0u);
-  EXPECT_LE(dir.mid[k], dir.width[k]);
+  EXPECT_LE(dir.mid[k], dir.local[k] != 0 ? 33u : dir.width[k]);  // with local references: up to 32 bits
   for (uint32_t t = 0; t < flat.indices.size(); ++t) {
     const int32_t i = flat.indices[t];
     const uint32_t n = i < 0 ? 1 : microTriangleCount(flat.descriptors[size_t(i)].subdivisionLevel);
@@ -771,10 +811,102 @@ TEST(EncodeDag, MidReferenceClass) {
   std::vector<uint8_t> bad = bytes;
   bad[data + 76 + k] = dir.tier[k];  // mid = tier
   EXPECT_FALSE(EncodedArray::parse(bad));
-  bad[data + 76 + k] = uint8_t(dir.width[k] + 1);  // mid above the width
+  bad[data + 76 + k] =
+      uint8_t(dir.local[k] != 0 ? 34 : dir.width[k] + 1);  // mid above the width (or 32 bits)
   EXPECT_FALSE(EncodedArray::parse(bad));
   bad = bytes;
-  bad[data + 88] = 1;  // reserved
+  bad[data + 100] = 1;  // reserved
+  EXPECT_FALSE(EncodedArray::parse(bad));
+  bad = bytes;
+  bad[data + 88 + k] = 2;  // local flag above 1
+  EXPECT_FALSE(EncodedArray::parse(bad));
+}
+
+// Level-6 2-state maps whose roots each have 16 height-2 children of their own (one leaf 0x00ff at slot j of child
+// j, the other 15 children uniform, from a hash of (map, j)): every height-2 record is referenced once, so with
+// enough maps local references (a few bits from the root) beat region references (many records).
+Micromap localMap(uint32_t m) {
+  Micromap out(6, Format::TwoState);
+  for (uint32_t i = 0; i < 4096; ++i) {
+    const uint32_t j = i >> 8, s = (i >> 4) & 15u, v = ((m * 16 + j + 1) * 2654435761u) >> 9;
+    const bool opaque = s == j ? (i & 15u) < 8 : ((v >> s) & 1u) != 0;
+    out.set(i, opaque ? State::Opaque : State::Transparent);
+  }
+  return out;
+}
+
+// Local references (docs/encodings.md, sdag: the local class): records referenced once are stored after their
+// parent and reached by a byte offset from it. Lookups equal flat, decode is bit-exact, parse round-trips; a record
+// referenced once from two different maps' parents (twice in all) stays in its region; corrupted local references
+// are refused (or still stay in bounds: every lookup of whatever parses runs under the sanitizers).
+TEST(EncodeDag, LocalReferences) {
+  std::vector<Micromap> maps;
+  for (uint32_t m = 0; m < 8; ++m) maps.push_back(localMap(m));
+  const uint32_t k2 = encode::sdagRegion(Format::TwoState, 2), k3 = k2 + 1;
+  auto check = [](const OmmArray& flat, const EncodedArray& e) {
+    for (uint32_t t = 0; t < flat.indices.size(); ++t)
+      for (uint32_t x = 0; x < 4096; ++x) ASSERT_EQ(e.state(t, x), flat.state(t, x)) << t << " " << x;
+    const OmmArray back = e.decode();
+    EXPECT_TRUE(back.data == flat.data && back.descriptors == flat.descriptors &&
+                back.indices == flat.indices);
+    EXPECT_EQ(EncodedArray::parse(e.serialize()).value(), e);
+  };
+  const OmmArray flat = arrayOf(maps);
+  const EncodedArray e = EncodedArray::build(flat, Encoding::Sdag).value();
+  const encode::SdagDirectory& dir = e.directory();
+  ASSERT_EQ(dir.local[k2], 1u);
+  EXPECT_EQ(dir.tier[k2], 0u);                // every reference into height 2 is local
+  EXPECT_EQ(dir.base[k2 + 1], dir.base[k2]);  // so region (1, 2) is empty: the records follow their roots
+  EXPECT_EQ(dir.local[encode::sdagRegion(Format::TwoState, 1)], 0u);
+  check(flat, e);
+  // The roots are stored in region (1, 3), each followed by its 16 children: the first root's first local
+  // reference is its own size.
+  const uint8_t* root = e.data().data() + e.maps()[0].offset;
+  EXPECT_EQ(e.maps()[0].offset, dir.base[k3]);
+  EXPECT_EQ(encode::sdagRefClass(root, 16, 16, 0, dir.width[k2], 0, 0).ref,
+            (16 + 16 * dir.width[k2] + 7) / 8);
+  const uint64_t plainSize = [&] {
+    std::vector<Micromap> one{maps[0]};
+    return EncodedArray::build(arrayOf(one), Encoding::Sdag).value().directory().local[k2];
+  }();
+  EXPECT_EQ(plainSize, 0u);  // one map alone: local references would not be shorter
+  // Map 8 repeats map 0's child 3 under its own root: that record is referenced twice (once from each of two
+  // maps' parents) and stays in region (1, 2); the others stay local.
+  Micromap shared = localMap(8);
+  for (uint32_t i = 0; i < 4096; ++i)
+    if ((i >> 8) == 5) shared.set(i, maps[0].get(3 * 256 + (i & 255)));
+  std::vector<Micromap> more = maps;
+  more.push_back(shared);
+  const OmmArray flat2 = arrayOf(more);
+  const EncodedArray e2 = EncodedArray::build(flat2, Encoding::Sdag).value();
+  ASSERT_EQ(e2.directory().local[k2], 1u);
+  EXPECT_GT(e2.directory().base[k2 + 1], e2.directory().base[k2]);  // the shared record
+  EXPECT_NE(e2.directory().tier[k2], 0u);
+  check(flat2, e2);
+  // Corruptions: every byte of the first root and its first local child, each bit flipped; and a local
+  // reference pointing before the end of its record, or past the regions.
+  const std::vector<uint8_t> bytes = e.serialize();
+  const size_t data = 20 + e.indexBufferBytes() + 8 * e.mapCount();
+  for (size_t at = data + e.maps()[0].offset; at < data + e.maps()[0].offset + 40; ++at)
+    for (uint32_t bit = 0; bit < 8; ++bit) {
+      std::vector<uint8_t> bad = bytes;
+      bad[at] ^= uint8_t(1u << bit);
+      const auto r = EncodedArray::parse(bad);
+      if (!r) continue;
+      for (uint32_t t = 0; t < r->triangleCount(); ++t)
+        for (uint32_t x = 0; x < 4096; x += 5) (void)r->state(t, x);
+    }
+  std::vector<uint8_t> bad = bytes;
+  const size_t rootAt = data + e.maps()[0].offset;
+  for (uint32_t b = 16; b < 16u + dir.width[k2];
+       ++b)  // the first local reference = 0: inside the root itself
+    bad[rootAt + b / 8] &= uint8_t(~(1u << (b % 8)));
+  EXPECT_FALSE(EncodedArray::parse(bad));
+  bad = bytes;
+  bad[data + 88 + k2] = 0;  // the local class read as region references
+  EXPECT_FALSE(EncodedArray::parse(bad));
+  bad = bytes;
+  bad.resize(bad.size() - 9);  // truncated
   EXPECT_FALSE(EncodedArray::parse(bad));
 }
 

@@ -29,6 +29,67 @@ namespace {
 
 using somm::Encoding;
 
+// Every record of format f reachable from the sdag maps' roots, once each (depth first): height (1 = leaf), byte
+// offset in the data, bytes, and whether it is local (stored with its only parent).
+struct SdagRecordInfo {
+  uint32_t height;
+  uint32_t offset;
+  uint32_t bytes;
+  bool local;
+};
+// The offset and localness of child i of the record at `at` (children of height h, references from bit pos).
+std::pair<uint32_t, bool> sdagChildInfo(const uint8_t* data, const somm::encode::SdagDirectory& dir,
+                                        somm::Format f, uint32_t h, uint32_t at, uint32_t pos, uint32_t n,
+                                        uint32_t i) {
+  using namespace somm::encode;
+  const uint32_t k = sdagRegion(f, h), w = dir.width[k], t = dir.tier[k], u = dir.mid[k];
+  const uint8_t* p = data + at;
+  const bool local = h == 1 && dir.local[k]
+                         ? sdagLeafRefClass(p, pos, n, i, w, t, u).isLong != 0
+                         : (sdagRefClass(p, pos, n, i, w, t, u).isLong & dir.local[k]) != 0;
+  return {sdagChildAt(dir, p, at, pos, n, i, k, h == 1 ? 2 * somm::bitsPerState(f) : 0), local};
+}
+void sdagVisit(const uint8_t* data, const somm::encode::SdagDirectory& dir, somm::Format f, uint32_t h,
+               uint32_t off, bool local, std::set<std::pair<uint32_t, uint32_t>>& seen,
+               std::vector<SdagRecordInfo>& out) {
+  using namespace somm::encode;
+  if (!seen.emplace(h, off).second) return;
+  if (h == 1) {
+    out.push_back({1, off, 2 * somm::bitsPerState(f), local});
+    return;
+  }
+  const uint32_t k = sdagRegion(f, h - 1);
+  const uint8_t* p = data + off;
+  const uint32_t m = load16(p), n = popcount64(m), pos = 32 - n;
+  const bool hf = h == 2 && dir.local[k] != 0;
+  out.push_back(
+      {h, off, (pos + sdagRefBits(p, pos, n, dir.width[k], dir.tier[k], dir.mid[k], hf) + 7) / 8, local});
+  for (uint32_t i = 0; i < n; ++i) {
+    const auto [c, l] = sdagChildInfo(data, dir, f, h - 1, off, pos, n, i);
+    sdagVisit(data, dir, f, h - 1, c, l, seen, out);
+  }
+}
+std::vector<SdagRecordInfo> sdagRecords(const somm::EncodedArray& a, somm::Format f) {
+  using namespace somm::encode;
+  const auto& dir = a.directory();
+  const uint8_t* data = a.data().data();
+  std::set<std::pair<uint32_t, uint32_t>> seen;
+  std::vector<SdagRecordInfo> out;
+  for (const auto& d : a.maps()) {
+    if (d.kind != somm::MapKind::Sdag || somm::Format(d.format) != f || d.level < 2) continue;
+    if (d.level % 2 == 0) {
+      sdagVisit(data, dir, f, d.level / 2, d.offset, false, seen, out);
+      continue;
+    }
+    const uint32_t h = (d.level - 1) / 2, m = data[d.offset] & 15u, n = popcount64(m);
+    for (uint32_t i = 0; i < n; ++i) {
+      const auto [c, l] = sdagChildInfo(data, dir, f, h, d.offset, 8 - n, n, i);
+      sdagVisit(data, dir, f, h, c, l, seen, out);
+    }
+  }
+  return out;
+}
+
 // Statistics that bound the sdag size ideas (4-state regions): printed with --sdag-stats.
 void printSdagAnalysis(const somm::EncodedArray& a) {
   using namespace somm::encode;
@@ -41,15 +102,20 @@ void printSdagAnalysis(const somm::EncodedArray& a) {
       if (v) e -= double(v) * std::log2(double(v) / tot);
     return e;
   };
-  const uint32_t k1 = sdagRegion(somm::Format::FourState, 1), k2 = k1 + 1, k3 = k1 + 2;
-  const uint32_t nLeaves = (dir.base[k1 + 1] - dir.base[k1]) / 4;
+  const uint32_t k1 = sdagRegion(somm::Format::FourState, 1), k2 = k1 + 1;
+  const std::vector<SdagRecordInfo> all = sdagRecords(a, somm::Format::FourState);
+  std::map<uint32_t, uint32_t> leafNo;  // leaf offset -> number
+  for (const SdagRecordInfo& r : all)
+    if (r.height == 1) leafNo.emplace(r.offset, uint32_t(leafNo.size()));
+  const uint32_t nLeaves = uint32_t(leafNo.size());
   std::vector<uint64_t> leafUse(nLeaves, 0);
   std::vector<std::vector<uint64_t>> leafUseSlot(16, std::vector<uint64_t>(nLeaves, 0));
   uint64_t recs = 0, maskBits = 0, stateBits = 0, flagBits = 0, refBits = 0, padBits = 0, stHist[4] = {},
            only01 = 0, save01 = 0;
   std::map<std::pair<uint32_t, uint64_t>, uint32_t> shapes;
-  std::vector<uint32_t> h2off;
-  for (uint64_t off = dir.base[k2]; off < dir.base[k2 + 1];) {
+  for (const SdagRecordInfo& rec : all) {
+    if (rec.height != 2) continue;
+    const uint64_t off = rec.offset;
     const uint8_t* p = data + off;
     const uint32_t m = load16(p), n = popcount64(m);
     const uint32_t pos = 32 - n, w = dir.width[k1], t = dir.tier[k1], u = dir.mid[k1];
@@ -69,21 +135,23 @@ void printSdagAnalysis(const somm::EncodedArray& a) {
     uint32_t slot = 0, j = 0;
     for (uint32_t s = 0; s < 16; ++s)
       if (m >> s & 1u) {
-        const uint32_t r = sdagRef(p, pos, n, j++, w, t, u);
+        const uint32_t r =
+            leafNo.at(sdagChildInfo(data, dir, somm::Format::FourState, 1, uint32_t(off), pos, n, j++).first);
         ++leafUse[r];
         ++leafUseSlot[s][r];
       }
     (void)slot;
-    const uint32_t rb = sdagRefBits(p, pos, n, w, t, u);
+    const bool hf = dir.local[k1] != 0;
+    const uint32_t rb = sdagRefBits(p, pos, n, w, t, u, hf);
     const uint32_t bytes = (pos + rb + 7) / 8;
     maskBits += 16;
     stateBits += 16 - n;
-    const uint32_t flags = t ? n + (u ? n - popcount64(getBits(p, pos, n)) : 0) : 0;  // F and G
+    const uint32_t sh = t ? popcount64(getBits(p, pos, n)) : 0, gl = t && u ? n - sh : 0;
+    const uint32_t mids = gl ? popcount64(getBits(p, pos + n, gl)) : 0;
+    const uint32_t flags = (t ? n : 0) + gl + (hf ? n - sh - mids : 0);  // F, G and H
     flagBits += flags;
     refBits += rb - flags;
     padBits += bytes * 8 - pos - rb;
-    h2off.push_back(uint32_t(off - dir.base[k2]));
-    off += bytes;
     ++recs;
   }
   double hs = 0;
@@ -92,7 +160,7 @@ void printSdagAnalysis(const somm::EncodedArray& a) {
   for (uint64_t u : leafUse) leafOnce += u == 1;
   // leaves equal to another's complement (state ^ 1)
   std::set<uint32_t> leafSet;
-  for (uint32_t i = 0; i < nLeaves; ++i) leafSet.insert(load32(data + dir.base[k1] + 4 * i));
+  for (const auto& [o, i] : leafNo) leafSet.insert(load32(data + o));
   uint64_t compl1 = 0;
   for (uint32_t v : leafSet)
     if (v != (v ^ 0x55555555u) && leafSet.count(v ^ 0x55555555u)) ++compl1;
@@ -114,15 +182,16 @@ void printSdagAnalysis(const somm::EncodedArray& a) {
   // h3: references into h2, how many h2 records referenced once
   std::map<uint32_t, uint32_t> h2use;
   uint64_t h3recs = 0, h3refBits = 0, h3refs = 0;
-  for (uint64_t off = dir.base[k3]; off < dir.base[k3 + 1];) {
-    const uint8_t* p = data + off;
+  for (const SdagRecordInfo& rec : all) {
+    if (rec.height != 3) continue;
+    const uint8_t* p = data + rec.offset;
     const uint32_t m = load16(p), n = popcount64(m);
     const uint32_t pos = 32 - n, w = dir.width[k2], t = dir.tier[k2], u = dir.mid[k2];
-    for (uint32_t j = 0; j < n; ++j) ++h2use[sdagRef(p, pos, n, j, w, t, u)];
+    for (uint32_t j = 0; j < n; ++j)
+      ++h2use[sdagChildInfo(data, dir, somm::Format::FourState, 2, rec.offset, pos, n, j).first];
     const uint32_t rb = sdagRefBits(p, pos, n, w, t, u);
     h3refBits += rb;
     h3refs += n;
-    off += (pos + rb + 7) / 8;
     ++h3recs;
   }
   uint64_t once = 0;
@@ -532,42 +601,47 @@ int run(const Options& o) {
           const auto& dir = a->directory();
           std::string line = "sdag L" + std::to_string(level) + ":";
           for (uint32_t h = 1; h <= 6; ++h) {
-            uint64_t b = 0, w = 0, t = 0, u = 0;
+            uint64_t b = 0, w = 0, t = 0, u = 0, loc = 0;
             for (uint32_t f = 1; f <= 2; ++f) {
               const uint32_t k = somm::encode::sdagRegion(somm::Format(f), h);
               b += dir.base[k + 1] - dir.base[k];
               w = std::max<uint64_t>(w, dir.width[k]);
               t = std::max<uint64_t>(t, dir.tier[k]);
               u = std::max<uint64_t>(u, dir.mid[k]);
+              loc = std::max<uint64_t>(loc, dir.local[k]);
             }
-            line += " h" + std::to_string(h) + " " + std::to_string(b) + " B (ref " + std::to_string(w) +
-                    (t != 0 ? " or " + std::to_string(t - 1) : std::string()) +
+            line += " h" + std::to_string(h) + " " + std::to_string(b) + " B (ref " + (loc ? "local " : "") +
+                    std::to_string(w) + (t != 0 ? " or " + std::to_string(t - 1) : std::string()) +
                     (u != 0 ? " or " + std::to_string(u - 1) : std::string()) + " bits)";
           }
           // Records and references per height (4-state regions), and how the leaf references spread.
           {
             const uint8_t* data = a->data().data();
             std::vector<uint32_t> leafRefs;
+            std::map<uint32_t, uint32_t> leafNo;
+            const auto all = sdagRecords(*a, somm::Format::FourState);
+            for (const auto& r : all)
+              if (r.height == 1) leafNo.emplace(r.offset, uint32_t(leafNo.size()));
+            leafRefs.assign(leafNo.size(), 0);
+            uint64_t localRecs[7] = {};
             for (uint32_t h = 2; h <= 6; ++h) {
-              const uint32_t k = somm::encode::sdagRegion(somm::Format::FourState, h);
               uint64_t recs = 0, refs = 0;
-              const uint32_t w = dir.width[k - 1], t = dir.tier[k - 1], u = dir.mid[k - 1];
-              for (uint64_t off = dir.base[k]; off < dir.base[k + 1];) {
-                const uint8_t* p = data + off;
+              for (const auto& rec : all) {
+                if (rec.height != h) continue;
+                const uint8_t* p = data + rec.offset;
                 const uint32_t m = somm::encode::load16(p), n = somm::encode::popcount64(m);
                 const uint32_t pos = 32 - n;
                 if (h == 2)
-                  for (uint32_t i = 0; i < n; ++i) {
-                    const uint32_t r = somm::encode::sdagRef(p, pos, n, i, w, t, u);
-                    if (r >= leafRefs.size()) leafRefs.resize(r + 1);
-                    ++leafRefs[r];
-                  }
-                off += (pos + somm::encode::sdagRefBits(p, pos, n, w, t, u) + 7) / 8;
+                  for (uint32_t i = 0; i < n; ++i)
+                    ++leafRefs[leafNo.at(
+                        sdagChildInfo(data, dir, somm::Format::FourState, 1, rec.offset, pos, n, i).first)];
                 ++recs;
                 refs += n;
               }
+              for (const auto& rec : all) localRecs[rec.height] += rec.local && rec.height == h - 1;
               line += " [h" + std::to_string(h) + ": " + std::to_string(recs) + " records, " +
-                      std::to_string(refs) + " refs]";
+                      std::to_string(refs) + " refs, " + std::to_string(localRecs[h - 1]) + " local h" +
+                      std::to_string(h - 1) + "]";
             }
             std::sort(leafRefs.rbegin(), leafRefs.rend());
             uint64_t total = 0, top = 0, once = 0;

@@ -628,6 +628,27 @@ std::vector<uint64_t> usesBelow(const std::vector<uint32_t>& order, const std::v
   return below;
 }
 
+// The cheapest (tier, mid) pair, starting from `best` / `tiers`: for each short width sw < w the pair
+// (sw + 1, twoMid) costing two(sw), then for each mid width sw < mw < w the pair (sw + 1, mw + 1) costing
+// three(sw, mw) (ties: the earlier candidate).
+template <class Two, class Three>
+std::pair<uint8_t, uint8_t> cheapestTiers(uint32_t w, uint64_t best, std::pair<uint8_t, uint8_t> tiers,
+                                          uint8_t twoMid, Two two, Three three) {
+  for (uint32_t sw = 0; sw < w; ++sw) {
+    if (const uint64_t c = two(sw); c < best) {
+      best = c;
+      tiers = {uint8_t(sw + 1), twoMid};
+    }
+    for (uint32_t mw = sw + 1; mw < w; ++mw)
+      if (const uint64_t c = three(sw, mw); c < best) {
+        best = c;
+        tiers = {uint8_t(sw + 1), uint8_t(mw + 1)};
+      }
+  }
+  return tiers;
+}
+constexpr uint64_t kNoCandidate = ~uint64_t(0);
+
 // The tier and mid (0, or short / mid width + 1) that minimise the bits of `uses` references into records whose
 // references `ref` increase along `order`: plain w bits; F + short / long; F + G + short / mid / long.
 std::pair<uint8_t, uint8_t> bestTiers(const std::vector<uint32_t>& order, const std::vector<uint32_t>& ref,
@@ -635,24 +656,12 @@ std::pair<uint8_t, uint8_t> bestTiers(const std::vector<uint32_t>& order, const 
   uint64_t total = 0;
   for (uint64_t u : uses) total += u;
   const std::vector<uint64_t> below = usesBelow(order, ref, uses, w);
-  uint64_t best = total * w;
-  std::pair<uint8_t, uint8_t> tiers{0, 0};
-  for (uint32_t sw = 0; sw < w; ++sw) {
-    const uint64_t two = total + below[sw] * sw + (total - below[sw]) * w;
-    if (two < best) {
-      best = two;
-      tiers = {uint8_t(sw + 1), 0};
-    }
-    for (uint32_t mw = sw + 1; mw < w; ++mw) {
-      const uint64_t three = total + (total - below[sw]) + below[sw] * sw + (below[mw] - below[sw]) * mw +
-                             (total - below[mw]) * w;
-      if (three < best) {
-        best = three;
-        tiers = {uint8_t(sw + 1), uint8_t(mw + 1)};
-      }
-    }
-  }
-  return tiers;
+  return cheapestTiers(
+      w, total * w, {0, 0}, 0, [&](uint32_t sw) { return total + below[sw] * sw + (total - below[sw]) * w; },
+      [&](uint32_t sw, uint32_t mw) {
+        return total + (total - below[sw]) + below[sw] * sw + (below[mw] - below[sw]) * mw +
+               (total - below[mw]) * w;
+      });
 }
 
 // With local references (the long class): the region references (of the `order` records, wr bits reach all of
@@ -667,16 +676,10 @@ std::pair<uint8_t, uint8_t> bestTiersLocal(const std::vector<uint32_t>& order,
   if (regional == 0) return {0, 0};
   const uint64_t total = regional + localUses;
   const std::vector<uint64_t> below = usesBelow(order, ref, uses, wr);
-  uint64_t best = total + regional * wr;
-  std::pair<uint8_t, uint8_t> tiers{uint8_t(wr + 1), 0};
-  for (uint32_t sw = 0; sw < wr; ++sw) {
-    const uint64_t three = total + (total - below[sw]) + below[sw] * sw + (regional - below[sw]) * wr;
-    if (three < best) {
-      best = three;
-      tiers = {uint8_t(sw + 1), uint8_t(wr + 1)};
-    }
-  }
-  return tiers;
+  return cheapestTiers(
+      wr, total + regional * wr, {uint8_t(wr + 1), 0}, uint8_t(wr + 1),
+      [&](uint32_t sw) { return total + (total - below[sw]) + below[sw] * sw + (regional - below[sw]) * wr; },
+      [](uint32_t, uint32_t) { return kNoCandidate; });
 }
 
 // A leaf region with local leaves: short, mid and long region references as without, plus the H flags (one per
@@ -689,24 +692,13 @@ std::pair<uint8_t, uint8_t> bestTiersLeafLocal(const std::vector<uint32_t>& orde
   for (uint32_t id : order) regional += uses[id];
   const uint64_t total = regional + localUses;
   const std::vector<uint64_t> below = usesBelow(order, ref, uses, w);
-  uint64_t best = total + regional * w;
-  std::pair<uint8_t, uint8_t> tiers{0, 0};
-  for (uint32_t sw = 0; sw < w; ++sw) {
-    const uint64_t two = 2 * total - below[sw] + below[sw] * sw + (regional - below[sw]) * w;
-    if (two < best) {
-      best = two;
-      tiers = {uint8_t(sw + 1), 0};
-    }
-    for (uint32_t mw = sw + 1; mw < w; ++mw) {
-      const uint64_t three = total + (total - below[sw]) + (total - below[mw]) + below[sw] * sw +
-                             (below[mw] - below[sw]) * mw + (regional - below[mw]) * w;
-      if (three < best) {
-        best = three;
-        tiers = {uint8_t(sw + 1), uint8_t(mw + 1)};
-      }
-    }
-  }
-  return tiers;
+  return cheapestTiers(
+      w, total + regional * w, {0, 0}, 0,
+      [&](uint32_t sw) { return 2 * total - below[sw] + below[sw] * sw + (regional - below[sw]) * w; },
+      [&](uint32_t sw, uint32_t mw) {
+        return total + (total - below[sw]) + (total - below[mw]) + below[sw] * sw +
+               (below[mw] - below[sw]) * mw + (regional - below[mw]) * w;
+      });
 }
 
 // Places region k: with `withLocal`, the candidates (referenced once, from a node record) become local records;

@@ -405,10 +405,6 @@ SOMM_ENCODE_INLINE SdagRefClass sdagRefClass(const uint8_t* p, uint32_t pos, uin
   const uint32_t at = pos + n + longOrMid + sw * s + mw * gb + w * (q - gb);
   return {getBits(p, at, isShort ? sw : isMid ? mw : w), (isShort | isMid) ^ 1u};
 }
-SOMM_ENCODE_INLINE uint32_t sdagRef(const uint8_t* p, uint32_t pos, uint32_t n, uint32_t i, uint32_t w,
-                                    uint32_t tier, uint32_t mid) noexcept {
-  return sdagRefClass(p, pos, n, i, w, tier, mid).ref;
-}
 // A reference into a leaf region with the local flag: a third flag vector H follows F and G, one bit per reference
 // that is neither short nor mid (1 = local); local references take no bits: the record's local leaves are stored
 // right before it in slot order, so local leaf j of the record's Lt is (Lt - j)·2b bytes before it. Returns
@@ -493,65 +489,30 @@ inline State sdagNodeWalk(const uint8_t* data, const SdagDirectory& dir, const u
       return sdagNodeStep<F, 6>(data, dir, p, index);
   }
 }
+// The step of the 4-way root (odd level >= 3) at byte offset `offset`: its child of height (level - 1) / 2 that
+// covers `index` (the child's byte offset; a leaf's at level 3) or the state (< 4) of a uniform child. M in bits
+// 0..3, the uniform states from bit 4.
+template <Format F>
+SOMM_ENCODE_INLINE uint32_t sdagRootChild(const uint8_t* data, const SdagDirectory& dir, uint32_t offset,
+                                          uint32_t level, uint32_t index) noexcept {
+  const uint8_t* p = data + offset;
+  const uint32_t h = level >> 1, slot = index >> (2 * level - 2), m = p[0] & 15u,
+                 below = popcount16(m & ((1u << slot) - 1u));
+  if (!((m >> slot) & 1u)) return getBit(p, 4u + slot - below);
+  const uint32_t k = sdagRegion(F, h), n = popcount16(m);
+  return sdagChildAt(dir, p, offset, 8u - n, n, below, k, h == 1 ? 2u * bitsPerState(F) : 0u);
+}
 template <Format F>
 inline State sdagStateAs(const uint8_t* data, const SdagDirectory& dir, uint32_t offset, uint32_t level,
                          uint32_t index) noexcept {
-  const uint8_t* p = data + offset;
-  if (level <= 1) return getValue(p, 0, F, index);
-  const uint32_t h = level >> 1;
-  if (level & 1u) {  // 4-way root: M in bits 0..3, states from bit 4
-    const uint32_t slot = index >> (2 * level - 2), m = p[0] & 15u,
-                   below = popcount16(m & ((1u << slot) - 1u));
-    if (!((m >> slot) & 1u)) return State(getBit(p, 4u + slot - below));
-    const uint32_t k = sdagRegion(F, h), n = popcount16(m);
-    p = data + sdagChildAt(dir, p, offset, 8u - n, n, below, k, h == 1 ? 2u * bitsPerState(F) : 0u);
-  }
-  return sdagNodeWalk<F>(data, dir, p, h, index);
-}
-// The walk from a map's root down to the record of height 2 that covers index bits [8, ...): returns that
-// record's byte offset in the data (>= kSdagDirectoryBytes), or the state (< 4) when a uniform child above it
-// ends the walk. Maps of level >= 6 only (an even root of height >= 3, or a 4-way root above height >= 2).
-template <Format F, uint32_t H>
-inline uint32_t sdagDescend(const uint8_t* data, const SdagDirectory& dir, const uint8_t* p,
-                            uint32_t index) noexcept {
-  constexpr uint32_t k = sdagRegion(F, H - 1);
-  const uint32_t slot = (index >> (4u * (H - 1u))) & 15u, m = load16(p),
-                 below = popcount16(m & ((1u << slot) - 1u));
-  if (!((m >> slot) & 1u)) return getBit(p, 16u + slot - below);
-  const uint32_t n = popcount16(m);
-  const uint32_t child = sdagChildAt(dir, p, uint32_t(p - data), 32u - n, n, below, k, 0u);
-  if constexpr (H == 3) {
-    return child;
-  } else {
-    return sdagDescend<F, H - 1>(data, dir, data + child, index);
-  }
-}
-template <Format F>
-inline uint32_t sdagDescendToHeight2(const uint8_t* data, const SdagDirectory& dir, uint32_t offset,
-                                     uint32_t level, uint32_t index) noexcept {
-  const uint8_t* p = data + offset;
-  uint32_t h = level >> 1;
+  if (level <= 1) return getValue(data + offset, 0, F, index);
   if (level & 1u) {
-    const uint32_t slot = index >> (2 * level - 2), m = p[0] & 15u,
-                   below = popcount16(m & ((1u << slot) - 1u));
-    if (!((m >> slot) & 1u)) return getBit(p, 4u + slot - below);
-    const uint32_t k = sdagRegion(F, h), n = popcount16(m);
-    const uint32_t child = sdagChildAt(dir, p, offset, 8u - n, n, below, k, 0u);
-    if (h == 2) return child;
-    p = data + child;
+    const uint32_t child = sdagRootChild<F>(data, dir, offset, level, index);
+    if (child < 4) return State(child);
+    offset = child;
   }
-  switch (h) {
-    case 3:
-      return sdagDescend<F, 3>(data, dir, p, index);
-    case 4:
-      return sdagDescend<F, 4>(data, dir, p, index);
-    case 5:
-      return sdagDescend<F, 5>(data, dir, p, index);
-    default:
-      return sdagDescend<F, 6>(data, dir, p, index);
-  }
+  return sdagNodeWalk<F>(data, dir, data + offset, level >> 1, index);
 }
-
 // A per-thread memo of the last lookup per triangle (256 entries, direct mapped by triangle): rays next to each
 // other hit the same triangles and nearby micro-triangles. An entry keeps the triangle's index-buffer value
 // resolved (the map's root, level, format, kind, or a special index's state), the last micro-triangle index it
@@ -611,36 +572,19 @@ SOMM_ENCODE_INLINE uint32_t sdagStepDown(const uint8_t* data, const SdagDirector
 template <Format F>
 inline uint32_t sdagMemoLeafWord(const uint8_t* data, const SdagDirectory& dir, SdagMemo::Entry& e,
                                  uint32_t index) noexcept {
-  constexpr uint32_t b = F == Format::TwoState ? 1u : 2u,
-                     repeat = F == Format::TwoState ? 0xffffu : 0x55555555u;
+  constexpr uint32_t repeat = F == Format::TwoState ? 0xffffu : 0x55555555u;
   const uint32_t level = e.level, top = level >> 1;  // the root's height (even) or its children's (odd)
   uint32_t at, h = (bitWidth32(index ^ e.index) + 3u) >> 2;  // the lowest height whose block holds both
   e.index = index;
   if (level < 4) {  // at most a leaf under a 4-way root: nothing to keep
-    const uint8_t* p = data + e.root;
-    if (level <= 1) return p[0];
-    if (level & 1u) {
-      const uint32_t slot = index >> 4, m = p[0] & 15u, below = popcount16(m & ((1u << slot) - 1u));
-      if (!((m >> slot) & 1u)) return getBit(p, 4u + slot - below) * repeat;
-      const uint32_t k = sdagRegion(F, 1), n = popcount16(m);
-      p = data + sdagChildAt(dir, p, e.root, 8u - n, n, below, k, 2u * b);
-    }
-    return F == Format::TwoState ? load16(p) : load32(p);
+    if (level <= 1) return data[e.root];
+    at = level == 3 ? sdagRootChild<F>(data, dir, e.root, level, index) : e.root;
+    if (at < 4) return at * repeat;
+    return F == Format::TwoState ? load16(data + at) : load32(data + at);
   }
-  if (h > top) {  // from the root
+  if (h > top) {  // from the root (a 4-way root: from its child of height top)
     h = top;
-    at = e.root;
-    if (level & 1u) {  // the 4-way root: its child of height top
-      const uint8_t* p = data + e.root;
-      const uint32_t slot = index >> (2 * level - 2), m = p[0] & 15u,
-                     below = popcount16(m & ((1u << slot) - 1u));
-      if (!((m >> slot) & 1u)) {
-        at = getBit(p, 4u + slot - below);
-      } else {
-        const uint32_t k = sdagRegion(F, top), n = popcount16(m);
-        at = sdagChildAt(dir, p, e.root, 8u - n, n, below, k, top == 1u ? 2u * b : 0u);
-      }
-    }
+    at = level & 1u ? sdagRootChild<F>(data, dir, e.root, level, index) : e.root;
   } else {
     at = e.path[h - 2];
   }

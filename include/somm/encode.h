@@ -394,49 +394,82 @@ struct SdagRefClass {
   uint32_t ref;
   uint32_t isLong;  // 1 = long class
 };
+// bit ? a : b without a branch (bit is 0 or 1; the reference widths depend on the data, a branch mispredicts).
+SOMM_ENCODE_INLINE uint32_t sdagPick(uint32_t bit, uint32_t a, uint32_t b) noexcept {
+  return b ^ ((a ^ b) & (0u - bit));
+}
+// x: the record's bits from bit pos on (at least 3n of them: the flag vectors).
 SOMM_ENCODE_INLINE SdagRefClass sdagRefClass(const uint8_t* p, uint32_t pos, uint32_t n, uint32_t i,
-                                             uint32_t w, uint32_t tier, uint32_t mid) noexcept {
+                                             uint32_t w, uint32_t tier, uint32_t mid, uint64_t x) noexcept {
   if (tier == 0) return {getBits(p, pos + w * i, w), 1u};
-  const uint32_t sw = tier - 1u, fl = getBits(p, pos, n), s = popcount16(fl & ((1u << i) - 1u)), q = i - s;
+  const uint32_t sw = tier - 1u, fl = uint32_t(x) & ((1u << n) - 1u), s = popcount16(fl & ((1u << i) - 1u)),
+                 q = i - s;
   const uint32_t isShort = (fl >> i) & 1u;
-  if (mid == 0) return {getBits(p, pos + n + sw * s + w * q, isShort ? sw : w), isShort ^ 1u};
-  const uint32_t longOrMid = n - popcount16(fl), g = getBits(p, pos + n, longOrMid),
+  if (mid == 0) return {getBits(p, pos + n + sw * s + w * q, sdagPick(isShort, sw, w)), isShort ^ 1u};
+  const uint32_t longOrMid = n - popcount16(fl), g = uint32_t(x >> n) & ((1u << longOrMid) - 1u),
                  gb = popcount16(g & ((1u << q) - 1u)), mw = mid - 1u, isMid = (g >> q) & 1u & (isShort ^ 1u);
   const uint32_t at = pos + n + longOrMid + sw * s + mw * gb + w * (q - gb);
-  return {getBits(p, at, isShort ? sw : isMid ? mw : w), (isShort | isMid) ^ 1u};
+  return {getBits(p, at, sdagPick(isShort, sw, sdagPick(isMid, mw, w))), (isShort | isMid) ^ 1u};
 }
 // A reference into a leaf region with the local flag: a third flag vector H follows F and G, one bit per reference
 // that is neither short nor mid (1 = local); local references take no bits: the record's local leaves are stored
 // right before it in slot order, so local leaf j of the record's Lt is (Lt - j)·2b bytes before it. Returns
 // isLong = 1 and ref = Lt - j for a local leaf, else the leaf number.
 SOMM_ENCODE_INLINE SdagRefClass sdagLeafRefClass(const uint8_t* p, uint32_t pos, uint32_t n, uint32_t i,
-                                                 uint32_t w, uint32_t tier, uint32_t mid) noexcept {
-  const uint32_t fl = tier != 0 ? getBits(p, pos, n) : 0u, s = popcount16(fl & ((1u << i) - 1u)), q = i - s;
+                                                 uint32_t w, uint32_t tier, uint32_t mid,
+                                                 uint64_t x) noexcept {
+  const uint32_t below = (1u << i) - 1u;
+  if (tier == 0) {  // every reference is long (no F, no G): H alone
+    const uint32_t hh = uint32_t(x) & ((1u << n) - 1u), hb = popcount16(hh & below);
+    if ((hh >> i) & 1u) return {popcount16(hh) - hb, 1u};
+    return {getBits(p, pos + n + w * (i - hb), w), 0u};
+  }
+  const uint32_t fl = uint32_t(x) & ((1u << n) - 1u), s = popcount16(fl & below), q = i - s;
   const uint32_t isShort = (fl >> i) & 1u, r = n - popcount16(fl);
-  uint32_t at = pos + (tier != 0 ? n : 0u);
-  const uint32_t g = mid != 0 ? getBits(p, at, r) : 0u, gb = popcount16(g & ((1u << q) - 1u));
-  at += mid != 0 ? r : 0u;
+  const uint32_t gn = mid != 0 ? r : 0u;  // G's length
+  const uint32_t g = uint32_t(x >> n) & ((1u << gn) - 1u), gb = popcount16(g & ((1u << q) - 1u));
   const uint32_t isMid = (g >> q) & 1u & (isShort ^ 1u), r2 = r - popcount16(g), o = q - gb;
-  const uint32_t hh = getBits(p, at, r2), hb = popcount16(hh & ((1u << o) - 1u));
+  const uint32_t hh = uint32_t(x >> (n + gn)) & ((1u << r2) - 1u), hb = popcount16(hh & ((1u << o) - 1u));
   const uint32_t isLocal = (hh >> o) & 1u & ((isShort | isMid) ^ 1u);
-  const uint32_t sw = tier != 0 ? tier - 1u : 0u, mw = mid != 0 ? mid - 1u : 0u;
-  const uint32_t refAt = at + r2 + sw * s + mw * gb + w * (o - hb);
-  const uint32_t ref = getBits(p, refAt, isShort ? sw : isMid ? mw : isLocal ? 0u : w);
-  return {isLocal ? popcount16(hh) - hb : ref, isLocal};
+  const uint32_t sw = tier - 1u, mw = mid != 0 ? mid - 1u : 0u;
+  const uint32_t refAt = pos + n + gn + r2 + sw * s + mw * gb + w * (o - hb);
+  const uint32_t ref =
+      getBits(p, refAt, sdagPick(isShort, sw, sdagPick(isMid, mw, sdagPick(isLocal, 0u, w))));
+  return {sdagPick(isLocal, popcount16(hh) - hb, ref), isLocal};
+}
+// The same reading the flags from p at bit pos.
+SOMM_ENCODE_INLINE SdagRefClass sdagRefClass(const uint8_t* p, uint32_t pos, uint32_t n, uint32_t i,
+                                             uint32_t w, uint32_t tier, uint32_t mid) noexcept {
+  return sdagRefClass(p, pos, n, i, w, tier, mid, load64(p + (pos >> 3)) >> (pos & 7u));
+}
+SOMM_ENCODE_INLINE SdagRefClass sdagLeafRefClass(const uint8_t* p, uint32_t pos, uint32_t n, uint32_t i,
+                                                 uint32_t w, uint32_t tier, uint32_t mid) noexcept {
+  return sdagLeafRefClass(p, pos, n, i, w, tier, mid, load64(p + (pos >> 3)) >> (pos & 7u));
 }
 // The byte offset (in the data) of the child that reference number i of the record at byte offset `at` (p) refers
 // to, in region k (leafBytes: 2b for a leaf region, 0 for a node region): a local node is at a byte offset from
 // the record, a local leaf before it, the others in the region.
+// x: the record's bits from bit pos on (the flags: 3n <= 48 bits).
 SOMM_ENCODE_INLINE uint32_t sdagChildAt(const SdagDirectory& dir, const uint8_t* p, uint32_t at, uint32_t pos,
-                                        uint32_t n, uint32_t i, uint32_t k, uint32_t leafBytes) noexcept {
+                                        uint32_t n, uint32_t i, uint32_t k, uint32_t leafBytes,
+                                        uint64_t x) noexcept {
   const uint32_t w = dir.width[k], t = dir.tier[k], u = dir.mid[k];
   if (leafBytes != 0 && dir.local[k] != 0) {
-    const SdagRefClass r = sdagLeafRefClass(p, pos, n, i, w, t, u);
-    return r.isLong != 0 ? at - r.ref * leafBytes : dir.base[k] + r.ref * leafBytes;
+    const SdagRefClass r = sdagLeafRefClass(p, pos, n, i, w, t, u, x);
+    return sdagPick(r.isLong, at - r.ref * leafBytes, dir.base[k] + r.ref * leafBytes);
   }
-  const SdagRefClass r = sdagRefClass(p, pos, n, i, w, t, u);
-  return (r.isLong & dir.local[k]) != 0 ? at + r.ref
-                                        : dir.base[k] + r.ref * (leafBytes != 0 ? leafBytes : 1u);
+  const SdagRefClass r = sdagRefClass(p, pos, n, i, w, t, u, x);
+  return sdagPick(r.isLong & dir.local[k], at + r.ref,
+                  dir.base[k] + r.ref * (leafBytes != 0 ? leafBytes : 1u));
+}
+SOMM_ENCODE_INLINE uint32_t sdagChildAt(const SdagDirectory& dir, const uint8_t* p, uint32_t at, uint32_t pos,
+                                        uint32_t n, uint32_t i, uint32_t k, uint32_t leafBytes) noexcept {
+  return sdagChildAt(dir, p, at, pos, n, i, k, leafBytes, load64(p + (pos >> 3)) >> (pos & 7u));
+}
+// The flag bits of a node record with n node children (from bit 32 - n): one load from byte 2, independent of
+// the mask (16 - n <= 16 bits skipped leaves >= 48).
+SOMM_ENCODE_INLINE uint64_t sdagNodeFlags(const uint8_t* p, uint32_t n) noexcept {
+  return load64(p + 2) >> (16u - n);
 }
 // Bits of the references (with their flags) of such a record (h: with the H flags of a local leaf region).
 inline uint32_t sdagRefBits(const uint8_t* p, uint32_t pos, uint32_t n, uint32_t w, uint32_t tier,
@@ -463,8 +496,8 @@ SOMM_ENCODE_INLINE State sdagNodeStep(const uint8_t* data, const SdagDirectory& 
                  below = popcount16(m & ((1u << slot) - 1u));
   if (!((m >> slot) & 1u)) return State(getBit(p, 16u + slot - below));
   const uint32_t n = popcount16(m);
-  const uint8_t* c =
-      data + sdagChildAt(dir, p, uint32_t(p - data), 32u - n, n, below, k, H == 2 ? 2u * b : 0u);
+  const uint8_t* c = data + sdagChildAt(dir, p, uint32_t(p - data), 32u - n, n, below, k,
+                                        H == 2 ? 2u * b : 0u, sdagNodeFlags(p, n));
   if constexpr (H == 2) {
     return getValue(c, 0, F, index & 15u);
   } else {
@@ -564,7 +597,18 @@ SOMM_ENCODE_INLINE uint32_t sdagStepDown(const uint8_t* data, const SdagDirector
                  below = popcount16(m & ((1u << slot) - 1u));
   if (!((m >> slot) & 1u)) return getBit(p, 16u + slot - below);
   const uint32_t n = popcount16(m);
-  return sdagChildAt(dir, p, at, 32u - n, n, below, k, h == 2u ? 2u * b : 0u);
+  return sdagChildAt(dir, p, at, 32u - n, n, below, k, h == 2u ? 2u * b : 0u, sdagNodeFlags(p, n));
+}
+// A step of the memo's walk from the record of height H at byte offset `at` (put on the entry's path): the child
+// covering `index` (its byte offset), or the state (< 4) of a uniform child, then also the path below it.
+template <Format F, uint32_t H>
+SOMM_ENCODE_INLINE uint32_t sdagMemoStep(const uint8_t* data, const SdagDirectory& dir, SdagMemo::Entry& e,
+                                         uint32_t at, uint32_t index) noexcept {
+  e.path[H - 2] = at;
+  const uint32_t c = sdagStepDown<F>(data, dir, at, H, index);
+  if (c < 4)
+    for (uint32_t j = 0; j + 2 < H; ++j) e.path[j] = c;
+  return c;
 }
 // The leaf word of a memo entry's map (kind 0) around `index` (b·16 bits, state i at bit b·i; a uniform block's
 // state repeated), by the walk from the lowest record on the entry's path that covers both `index` and the
@@ -588,14 +632,42 @@ inline uint32_t sdagMemoLeafWord(const uint8_t* data, const SdagDirectory& dir, 
   } else {
     at = e.path[h - 2];
   }
-  for (; h >= 2 && at >= 4; --h) {
-    e.path[h - 2] = at;
-    at = sdagStepDown<F>(data, dir, at, h, index);
+  // Down from height h, one case per height (the region, shift and reference kind of each step are constants).
+  if (at >= 4) {
+    switch (h) {
+      case 6:
+        if ((at = sdagMemoStep<F, 6>(data, dir, e, at, index)) < 4) break;
+        [[fallthrough]];
+      case 5:
+        if ((at = sdagMemoStep<F, 5>(data, dir, e, at, index)) < 4) break;
+        [[fallthrough]];
+      case 4:
+        if ((at = sdagMemoStep<F, 4>(data, dir, e, at, index)) < 4) break;
+        [[fallthrough]];
+      case 3:
+        if ((at = sdagMemoStep<F, 3>(data, dir, e, at, index)) < 4) break;
+        [[fallthrough]];
+      default:
+        if ((at = sdagMemoStep<F, 2>(data, dir, e, at, index)) < 4) break;
+        return F == Format::TwoState ? load16(data + at) : load32(data + at);
+    }
+  } else {  // a uniform child of the 4-way root (or a uniform block on the path: then already so below)
+    for (uint32_t j = 0; j + 2 <= h; ++j) e.path[j] = at;
   }
-  if (at < 4) {  // a uniform block of height h: every record below it on the path is that state
-    for (; h >= 2; --h) e.path[h - 2] = at;
-    return at * repeat;
-  }
+  return at * repeat;  // a uniform block
+}
+
+// The leaf word around `index` when the entry's last walk was in the same height-2 block (the common case of
+// the memo: one step from the record on the path, inline), else by sdagMemoLeafWord.
+template <Format F>
+SOMM_ENCODE_INLINE uint32_t sdagMemoNextLeafWord(const uint8_t* data, const SdagDirectory& dir,
+                                                 SdagMemo::Entry& e, uint32_t index) noexcept {
+  constexpr uint32_t repeat = F == Format::TwoState ? 0xffffu : 0x55555555u;
+  if (((index ^ e.index) >> 8) != 0 || e.level < 4) return sdagMemoLeafWord<F>(data, dir, e, index);
+  e.index = index;
+  uint32_t at = e.path[0];
+  if (at >= 4) at = sdagStepDown<F>(data, dir, at, 2u, index);
+  if (at < 4) return at * repeat;
   return F == Format::TwoState ? load16(data + at) : load32(data + at);
 }
 
@@ -790,7 +862,7 @@ class EncodedArray {
   // The sdag lookup of a triangle through the per-thread memo (encode::SdagMemo); indexOf(level) gives the
   // micro-triangle index once the triangle's level is known.
   template <class IndexOf>
-  State sdagMemoState(uint32_t triangle, IndexOf indexOf) const noexcept {
+  SOMM_ENCODE_INLINE State sdagMemoState(uint32_t triangle, IndexOf indexOf) const noexcept {
     encode::SdagMemo::Entry& e = encode::sdagMemoEntry(triangle);
     if (e.array != identity_ || e.triangle != triangle) {
       const int32_t i = indexAs<Encoding::Sdag>(triangle);
@@ -814,8 +886,8 @@ class EncodedArray {
     if (e.kind == 1) return encode::flatState(data_.data() + e.root, e.level, f, index);
     if ((index ^ e.index) >= 16u)
       e.leaf = f == Format::FourState
-                   ? encode::sdagMemoLeafWord<Format::FourState>(data_.data(), dir_, e, index)
-                   : encode::sdagMemoLeafWord<Format::TwoState>(data_.data(), dir_, e, index);
+                   ? encode::sdagMemoNextLeafWord<Format::FourState>(data_.data(), dir_, e, index)
+                   : encode::sdagMemoNextLeafWord<Format::TwoState>(data_.data(), dir_, e, index);
     return f == Format::FourState ? State((e.leaf >> (2u * (index & 15u))) & 3u)
                                   : State((e.leaf >> (index & 15u)) & 1u);
   }

@@ -1057,5 +1057,35 @@ TEST(EncodeDag, WalkMemoAnswersAsFlatInAnyOrder) {
     }
   }
 }
+// The memo's walk restarts at every height 2..6 of the deepest maps (levels 11 and 12: a 4-way root over height-5
+// records, a height-6 root): walks of neighbouring, bit-flipped and random indices, against flat.
+TEST(EncodeDag, WalkMemoRestartsAtEveryHeightOfLevels11And12) {
+  for (Format f : {Format::TwoState, Format::FourState}) {
+    std::mt19937 rng(f == Format::TwoState ? 21u : 22u);
+    const OmmArray oracle = arrayOf({cachedMap(Pattern::Leaf, 11, f, 2), cachedMap(Pattern::Disc, 12, f, 2),
+                                     cachedMap(Pattern::Leaf, 12, f, 2)});
+    const EncodedArray e = EncodedArray::build(oracle, Encoding::Sdag).value();
+    std::vector<uint32_t> last(3, 0);
+    uint32_t restarts[8] = {};
+    for (uint32_t q = 0; q < 300000; ++q) {
+      const uint32_t t = rng() % 3, level = t == 0 ? 11u : 12u, n = microTriangleCount(level);
+      uint32_t i;
+      switch (rng() % 4) {
+        case 0:
+          i = rng() % n;
+          break;
+        case 1:
+          i = (last[t] + 1 + rng() % 64) % n;
+          break;
+        default:
+          i = last[t] ^ (1u << (rng() % (2 * level)));
+      }
+      if (i != last[t]) ++restarts[std::min(7u, (encode::bitWidth32(i ^ last[t]) + 3u) >> 2)];
+      last[t] = i;
+      ASSERT_EQ(e.state(t, i), oracle.state(t, i)) << int(f) << " triangle " << t << " index " << i;
+    }
+    for (uint32_t h = 2; h <= 6; ++h) EXPECT_GT(restarts[h], 1000u) << "restarts at height " << h;
+  }
+}
 }  // namespace
 }  // namespace somm

@@ -287,14 +287,19 @@ struct TriangleClassifier {
       const bool isX = side < 2;
       const double c = (side & 1) ? 1 + m : -m;
       const double sign = (side & 1) ? -1.0 : 1.0;  // inside: sign · (coord − c) >= 0
-      // Every vertex inside this side: the clip would copy the polygon as it is (the same vertices, the same order).
+      // Each vertex's signed distance once; when every vertex is inside this side the clip would copy the polygon as it
+      // is (the same vertices, the same order).
+      double d[48];
       bool allInside = true;
-      for (int q = 0; q < n; ++q) allInside = allInside && sign * ((isX ? px[q] : py[q]) - c) >= 0;
+      for (int q = 0; q < n; ++q) {
+        d[q] = sign * ((isX ? px[q] : py[q]) - c);
+        allInside = allInside && d[q] >= 0;
+      }
       if (allInside) continue;
       int o = 0;
       for (int q = 0; q < n; ++q) {
         const int q1 = q + 1 == n ? 0 : q + 1;
-        const double d0 = sign * ((isX ? px[q] : py[q]) - c), d1 = sign * ((isX ? px[q1] : py[q1]) - c);
+        const double d0 = d[q], d1 = d[q1];
         if (d0 >= 0) {
           qx[o] = px[q];
           qy[o++] = py[q];
@@ -686,8 +691,8 @@ struct TriangleClassifier {
       leafSamples<true>(cX, cY, vpass, pass);
 #endif
     }
+    State st[4];
     for (uint32_t c = 0; c < 4; ++c) {
-      const uint32_t index = prefix * 4 + c;
       const unsigned vbits = ((vpass >> kLeafVertex[c][0]) & 1u) |
                              (((vpass >> kLeafVertex[c][1]) & 1u) << 1) |
                              (((vpass >> kLeafVertex[c][2]) & 1u) << 2);
@@ -695,12 +700,22 @@ struct TriangleClassifier {
       if ((pass[c] == 4 && vbits == 7u) || (pass[c] == 0 && vbits == 0)) {
         const unsigned r = region(cX[c], cY[c], kLeafCells);
         if (r == kPass || r == kFail) {
-          fill(index, 1, r == kPass ? State::Opaque : State::Transparent);
+          st[c] = r == kPass ? State::Opaque : State::Transparent;
           continue;
         }
       }
       ++unknown;
-      fill(index, 1, unknownFrom(pass[c], cX[c], cY[c]));
+      st[c] = unknownFrom(pass[c], cX[c], cY[c]);
+    }
+    // The 4 leaves (indices 4·prefix .. 4·prefix + 3) fill one byte (4-state) or one nibble (2-state): stored at once.
+    if (format == Format::FourState) {
+      bytes[prefix] = uint8_t((uint32_t(st[0]) & 3u) | (uint32_t(st[1]) & 3u) << 2 |
+                              (uint32_t(st[2]) & 3u) << 4 | (uint32_t(st[3]) & 3u) << 6);
+    } else {
+      const uint32_t nibble = (uint32_t(st[0]) & 1u) | (uint32_t(st[1]) & 1u) << 1 |
+                              (uint32_t(st[2]) & 1u) << 2 | (uint32_t(st[3]) & 1u) << 3;
+      const uint32_t shift = 4u * (prefix & 1u);
+      bytes[prefix >> 1] = uint8_t((bytes[prefix >> 1] & ~(0xfu << shift)) | (nibble << shift));
     }
   }
 

@@ -1400,26 +1400,45 @@ void AlphaMask::build() {
     passOf.resize(kind_ == Kind::U8 ? 256 : 65536);
     for (size_t v = 0; v < passOf.size(); ++v) passOf[v] = alphaTestPasses(lut_[v], cutoff_) ? 1 : 0;
   }
+  // Per row: its pass bits first, then its summed-area row from them (row prefix sums of the bits plus the row above).
   auto rows = [&](auto passAt) {
     for (uint32_t y = 0; y < h_; ++y) {
-      uint32_t row = 0;
-      const uint32_t* above = sat + size_t(y) * stride;
-      uint32_t* cur = sat + (size_t(y) + 1) * stride;
       uint64_t* bits = bits_.data() + size_t(y) * words_;
       const uint8_t* p = base_ + size_t(y) * pitch_;
-      cur[0] = 0;
       uint64_t word = 0;
       for (uint32_t x = 0; x < w_; ++x) {
-        const uint32_t pass = passAt(p, x, y);
-        row += pass;
-        cur[x + 1] = above[x + 1] + row;
-        word |= uint64_t(pass) << (x & 63u);
+        word |= uint64_t(passAt(p, x, y)) << (x & 63u);
         if ((x & 63u) == 63u) {
           bits[x >> 6] = word;
           word = 0;
         }
       }
       if (w_ & 63u) bits[w_ >> 6] = word;
+      const uint32_t* above = sat + size_t(y) * stride;
+      uint32_t* cur = sat + (size_t(y) + 1) * stride;
+      cur[0] = 0;
+      uint32_t x = 0, row = 0;
+#if defined(__SSE2__)
+      // Four texels at a time: the prefix sums of their 4 bits from a table, plus the running count of the row.
+      alignas(16) static constexpr uint32_t kPrefix[16][4] = {
+          {0, 0, 0, 0}, {1, 1, 1, 1}, {0, 1, 1, 1}, {1, 2, 2, 2}, {0, 0, 1, 1}, {1, 1, 2, 2},
+          {0, 1, 2, 2}, {1, 2, 3, 3}, {0, 0, 0, 1}, {1, 1, 1, 2}, {0, 1, 1, 2}, {1, 2, 2, 3},
+          {0, 0, 1, 2}, {1, 1, 2, 3}, {0, 1, 2, 3}, {1, 2, 3, 4}};
+      __m128i carry = _mm_setzero_si128();
+      for (; x + 4 <= w_; x += 4) {
+        const uint32_t nibble = uint32_t(bits[x >> 6] >> (x & 63u)) & 15u;
+        const __m128i v =
+            _mm_add_epi32(_mm_load_si128(reinterpret_cast<const __m128i*>(kPrefix[nibble])), carry);
+        const __m128i a = _mm_loadu_si128(reinterpret_cast<const __m128i*>(above + x + 1));
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(cur + x + 1), _mm_add_epi32(v, a));
+        carry = _mm_shuffle_epi32(v, 0xff);
+      }
+      row = uint32_t(_mm_cvtsi128_si32(carry));
+#endif
+      for (; x < w_; ++x) {
+        row += uint32_t(bits[x >> 6] >> (x & 63u)) & 1u;
+        cur[x + 1] = above[x + 1] + row;
+      }
     }
   };
   if (kind_ == Kind::U8 && !passOf.empty()) {

@@ -442,8 +442,9 @@ struct TriangleClassifier {
           }
         }
         spend(uint64_t(b - a + 1));
-        // Cells whose four corners agree are decided by them, all at once; the others one by one. The region's class
-        // does not depend on the order the cells are visited in (docs/baking.md): the same answer as cell by cell.
+        // Cells whose four corners agree are decided by them, all at once; the others one by one. The region's
+        // class does not depend on the order its cells are visited in (docs/baking.md "Cells in any order"):
+        // the same answer as cell by cell.
         const uint64_t cells = (uint64_t(2) << (b - a)) - 1;  // b − a ≤ 61
         const uint64_t ra1 = ra >> 1, rb1 = rb >> 1;
         const uint64_t allPass = ra & ra1 & rb & rb1 & cells, allFail = ~(ra | ra1 | rb | rb1) & cells;

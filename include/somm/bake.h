@@ -260,9 +260,16 @@ class AlphaMask {
   // The alpha test of the 64 texels (x, y) .. (x + 63, y) of row y (x < W, y < H) as bits 0..63; bits for texels at
   // or beyond W are unspecified. (docs/baking.md "Pass bits".)
   SOMM_BAKE_INLINE uint64_t passBits(uint32_t x, uint32_t y) const noexcept {
-    const uint64_t* row = bits_.data() + size_t(y) * words_ + (x >> 6);
-    const uint32_t s = x & 63u;
-    return s ? (row[0] >> s) | (row[1] << (64 - s)) : row[0];
+    return passBitsAt(passWord(x, y), x & 63u);
+  }
+  // passBits in steps: the word holding texel (x, y); the next row's is passRowWords() words further on; passBitsAt(word,
+  // x & 63) is passBits(x, y).
+  SOMM_BAKE_INLINE const uint64_t* passWord(uint32_t x, uint32_t y) const noexcept {
+    return bits_.data() + size_t(y) * words_ + (x >> 6);
+  }
+  size_t passRowWords() const noexcept { return words_; }
+  static SOMM_BAKE_INLINE uint64_t passBitsAt(const uint64_t* word, uint32_t s) noexcept {
+    return s ? (word[0] >> s) | (word[1] << (64 - s)) : word[0];
   }
 
   // Bytes held by the mask (its tables), for memory accounting.

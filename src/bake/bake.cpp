@@ -190,8 +190,11 @@ struct TriangleClassifier {
       // The same texels as the summed-area query, from their pass bits row by row.
       const uint64_t full = (uint64_t(2) << (i1 + ext - i0)) - 1;
       uint64_t any = 0, all = full;
-      for (int64_t y = j0; y <= j1 + ext; ++y) {
-        const uint64_t b = mask.passBits(uint32_t(i0), uint32_t(y)) & full;
+      const uint64_t* word = mask.passWord(uint32_t(i0), uint32_t(j0));
+      const size_t rowWords = mask.passRowWords();
+      const uint32_t s = uint32_t(i0) & 63u;
+      for (int64_t y = j0; y <= j1 + ext; ++y, word += rowWords) {
+        const uint64_t b = AlphaMask::passBitsAt(word, s) & full;
         any |= b;
         all &= b;
       }
@@ -430,8 +433,10 @@ struct TriangleClassifier {
       }
       if (bitsHold(a, b + 1, j, j + 1)) {
         // Inside the texture: the run's corners from the pass bits of its two rows (read once), as rect() would.
-        const uint64_t ra = mask.passBits(uint32_t(a), uint32_t(j)),
-                       rb = mask.passBits(uint32_t(a), uint32_t(j + 1));
+        const uint64_t* word = mask.passWord(uint32_t(a), uint32_t(j));
+        const uint32_t s = uint32_t(a) & 63u;
+        const uint64_t ra = AlphaMask::passBitsAt(word, s),
+                       rb = AlphaMask::passBitsAt(word + mask.passRowWords(), s);
         if (b - a >= 2) {
           // A run whose corner texels all agree decides all its cells (each by its four corners) in O(1).
           const uint64_t full = (uint64_t(2) << (b + 1 - a)) - 1;

@@ -580,7 +580,9 @@ struct TriangleClassifier {
   }
 
   // The state of an unknown micro-triangle whose centroidPasses are `pass`.
-  State unknownFrom(int pass, const double X[3], const double Y[3]) const noexcept {
+  // `inside`: the micro-triangle lies inside the texture as samplesInside() tests (the tie-break point then reads
+  // texels inside the texture: passesInside, the same bit as passesAt).
+  State unknownFrom(int pass, const double X[3], const double Y[3], bool inside = false) const noexcept {
     if (format == Format::TwoState && unknownAs != UnknownAs::Majority)
       return unknownAs == UnknownAs::Opaque ? State::Opaque : State::Transparent;
     bool opaque;
@@ -589,7 +591,7 @@ struct TriangleClassifier {
     } else {
       // The middle child's centroid is the parent's centroid; break the tie with a point between it and
       // vertex 0.
-      opaque = passesAt((2 * X[0] + X[1] + X[2]) / 4, (2 * Y[0] + Y[1] + Y[2]) / 4);
+      opaque = sampleWhere(inside, (2 * X[0] + X[1] + X[2]) / 4, (2 * Y[0] + Y[1] + Y[2]) / 4);
     }
     if (format == Format::TwoState) return opaque ? State::Opaque : State::Transparent;
     return opaque ? State::UnknownOpaque : State::UnknownTransparent;
@@ -686,7 +688,8 @@ struct TriangleClassifier {
     unsigned vpass = vb & 7u;
     int pass[4];
     const double pX[3] = {cX[0][0], cX[2][1], cX[3][2]}, pY[3] = {cY[0][0], cY[2][1], cY[3][2]};
-    if (!samplesInside(pX, pY)) {
+    const bool inside = samplesInside(pX, pY);
+    if (!inside) {
       leafSamples<false>(cX, cY, vpass, pass);
     } else if (shift == 0) {
       leafSamples<true>(cX, cY, vpass, pass);
@@ -711,7 +714,7 @@ struct TriangleClassifier {
         }
       }
       ++unknown;
-      st[c] = unknownFrom(pass[c], cX[c], cY[c]);
+      st[c] = unknownFrom(pass[c], cX[c], cY[c], inside);
     }
     // The 4 leaves (indices 4·prefix .. 4·prefix + 3) fill one byte (4-state) or one nibble (2-state): stored at once.
     if (format == Format::FourState) {

@@ -236,6 +236,14 @@ class AlphaMask {
     if (scale_ != 1.0f) f = scaled(f, scale_);
     return f;
   }
+  // 8-bit texels (texel(x, y) is u8Lut()[*u8Texel(x, y)]): for loops that read many texels at known offsets, rows
+  // u8Pitch() bytes apart, texels u8Step() bytes apart. Null / 0 for other formats.
+  const float* u8Lut() const noexcept { return kind_ == Kind::U8 ? lut_ : nullptr; }
+  const uint8_t* u8Texel(uint32_t x, uint32_t y) const noexcept {
+    return base_ + size_t(y) * pitch_ + size_t(x) * bpp_;
+  }
+  size_t u8Pitch() const noexcept { return pitch_; }
+  size_t u8Step() const noexcept { return bpp_; }
   static float scaled(float a, float scale) noexcept {
     a *= scale;
     return a < 0.0f ? 0.0f : (a > 1.0f ? 1.0f : a);  // NaN stays NaN
@@ -252,14 +260,21 @@ class AlphaMask {
   // The alpha test of the 64 texels (x, y) .. (x + 63, y) of row y (x < W, y < H) as bits 0..63; bits for texels at
   // or beyond W are unspecified. (docs/baking.md "Pass bits".)
   SOMM_BAKE_INLINE uint64_t passBits(uint32_t x, uint32_t y) const noexcept {
-    const uint64_t* row = bits_.data() + size_t(y) * words_ + (x >> 6);
-    const uint32_t s = x & 63u;
-    return s ? (row[0] >> s) | (row[1] << (64 - s)) : row[0];
+    return passBitsAt(passWord(x, y), x & 63u);
+  }
+  // passBits in steps: the word holding texel (x, y); the next row's is passRowWords() words further on; passBitsAt(word,
+  // x & 63) is passBits(x, y).
+  SOMM_BAKE_INLINE const uint64_t* passWord(uint32_t x, uint32_t y) const noexcept {
+    return bits_.data() + size_t(y) * words_ + (x >> 6);
+  }
+  size_t passRowWords() const noexcept { return words_; }
+  static SOMM_BAKE_INLINE uint64_t passBitsAt(const uint64_t* word, uint32_t s) noexcept {
+    return s ? (word[0] >> s) | (word[1] << (64 - s)) : word[0];
   }
 
   // Bytes held by the mask (its tables), for memory accounting.
   size_t memoryBytes() const noexcept {
-    return sat_.size() * sizeof(uint32_t) + bits_.size() * sizeof(uint64_t) + lutBytes_;
+    return satSize_ * sizeof(uint32_t) + bits_.size() * sizeof(uint64_t) + lutBytes_;
   }
 
  private:
@@ -277,7 +292,9 @@ class AlphaMask {
   uint32_t w_ = 0, h_ = 0;
   Sampler sampler_;
   float cutoff_ = 0.5f;
-  std::vector<uint32_t> sat_;   // (w+1)·(h+1) summed-area table of pass bits
+  std::shared_ptr<uint32_t[]>
+      sat_;  // (w+1)·(h+1) summed-area table of pass bits (immutable once built: shared by copies)
+  size_t satSize_ = 0;
   std::vector<uint64_t> bits_;  // h rows of words_ words: bit x % 64 of word x / 64 is texel x's alpha test
   size_t words_ = 0;  // w / 64 + 1 (a spare word, so passBits may read one word past the row's last texel)
   void build();

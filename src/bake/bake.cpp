@@ -13,6 +13,8 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
+#include <cassert>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -80,9 +82,11 @@ int wrapInterval(int64_t a, int64_t b, uint32_t size, Wrap w, Interval out[4]) n
   return 1;
 }
 
-// texelFloor without the libm call (std::floor is not inlined without SSE4.1).
+// texelFloor without the libm call (std::floor is not inlined without SSE4.1) and without its range clamp: the
+// classifier only sees usable triangles (texel coordinates below kMaxTexelCoord = 1e14 in magnitude, the margin and
+// the linear shift far below 1), so every x here is finite and |x| < 1e15, where texelFloor does not clamp either.
 inline int64_t cellFloor(double x) noexcept {
-  if (!(std::fabs(x) < 1e15)) return texelFloor(x);
+  assert(std::fabs(x) < 1e15);
   const int64_t i = int64_t(x);
   return i - (double(i) > x ? 1 : 0);
 }
@@ -186,8 +190,11 @@ struct TriangleClassifier {
       // The same texels as the summed-area query, from their pass bits row by row.
       const uint64_t full = (uint64_t(2) << (i1 + ext - i0)) - 1;
       uint64_t any = 0, all = full;
-      for (int64_t y = j0; y <= j1 + ext; ++y) {
-        const uint64_t b = mask.passBits(uint32_t(i0), uint32_t(y)) & full;
+      const uint64_t* word = mask.passWord(uint32_t(i0), uint32_t(j0));
+      const size_t rowWords = mask.passRowWords();
+      const uint32_t s = uint32_t(i0) & 63u;
+      for (int64_t y = j0; y <= j1 + ext; ++y, word += rowWords) {
+        const uint64_t b = AlphaMask::passBitsAt(word, s) & full;
         any |= b;
         all &= b;
       }
@@ -201,24 +208,38 @@ struct TriangleClassifier {
   // `low` / `high`: whether an edge may cross ya / yb. In the first row of a grown bounding box no vertex lies below
   // ya = j0 − m (j0 = ⌊min Y − m⌋, and 2m is far above the rounding of min Y − m), in its last row none above yb, so
   // no edge crosses there and the test is skipped (the same extent).
-  static bool slabExtent(const double X[3], const double Y[3], double ya, double yb, double& xl, double& xr,
-                         bool low = true, bool high = true) noexcept {
+  // The triangle's edges, prepared once for the slabs of all its rows: edge k runs from vertex k to k1 = k + 1 mod 3.
+  struct Edges {
+    double X[3], Y[3], dx[3], dy[3], ylo[3], yhi[3];
+    Edges(const double X_[3], const double Y_[3]) noexcept {
+      for (int k = 0; k < 3; ++k) {
+        const int k1 = k == 2 ? 0 : k + 1;
+        X[k] = X_[k];
+        Y[k] = Y_[k];
+        dx[k] = X_[k1] - X_[k];
+        dy[k] = Y_[k1] - Y_[k];
+        ylo[k] = std::min(Y_[k], Y_[k1]);
+        yhi[k] = std::max(Y_[k], Y_[k1]);
+      }
+    }
+  };
+  static bool slabExtent(const Edges& e, double ya, double yb, double& xl, double& xr, bool low = true,
+                         bool high = true) noexcept {
     xl = std::numeric_limits<double>::infinity();
     xr = -xl;
     for (int k = 0; k < 3; ++k) {
-      if (Y[k] >= ya && Y[k] <= yb) {
-        xl = std::min(xl, X[k]);
-        xr = std::max(xr, X[k]);
+      if (e.Y[k] >= ya && e.Y[k] <= yb) {
+        xl = std::min(xl, e.X[k]);
+        xr = std::max(xr, e.X[k]);
       }
-      const int k1 = k == 2 ? 0 : k + 1;
-      const double dy = Y[k1] - Y[k];
-      if (low && ((Y[k] < ya && Y[k1] > ya) || (Y[k] > ya && Y[k1] < ya))) {
-        const double x = X[k] + (ya - Y[k]) / dy * (X[k1] - X[k]);
+      // The edge crosses y = ya strictly (one end below, the other above).
+      if (low && e.ylo[k] < ya && e.yhi[k] > ya) {
+        const double x = e.X[k] + (ya - e.Y[k]) / e.dy[k] * e.dx[k];
         xl = std::min(xl, x);
         xr = std::max(xr, x);
       }
-      if (high && ((Y[k] < yb && Y[k1] > yb) || (Y[k] > yb && Y[k1] < yb))) {
-        const double x = X[k] + (yb - Y[k]) / dy * (X[k1] - X[k]);
+      if (high && e.ylo[k] < yb && e.yhi[k] > yb) {
+        const double x = e.X[k] + (yb - e.Y[k]) / e.dy[k] * e.dx[k];
         xl = std::min(xl, x);
         xr = std::max(xr, x);
       }
@@ -269,10 +290,19 @@ struct TriangleClassifier {
       const bool isX = side < 2;
       const double c = (side & 1) ? 1 + m : -m;
       const double sign = (side & 1) ? -1.0 : 1.0;  // inside: sign · (coord − c) >= 0
+      // Each vertex's signed distance once; when every vertex is inside this side the clip would copy the polygon as it
+      // is (the same vertices, the same order).
+      double d[48];
+      bool allInside = true;
+      for (int q = 0; q < n; ++q) {
+        d[q] = sign * ((isX ? px[q] : py[q]) - c);
+        allInside = allInside && d[q] >= 0;
+      }
+      if (allInside) continue;
       int o = 0;
       for (int q = 0; q < n; ++q) {
         const int q1 = q + 1 == n ? 0 : q + 1;
-        const double d0 = sign * ((isX ? px[q] : py[q]) - c), d1 = sign * ((isX ? px[q1] : py[q1]) - c);
+        const double d0 = d[q], d1 = d[q1];
         if (d0 >= 0) {
           qx[o] = px[q];
           qy[o++] = py[q];
@@ -309,12 +339,13 @@ struct TriangleClassifier {
     if (j0 == j1) return box;
     if (j1 - j0 > kMaxRows) return kMixed;
     // Exact: per row of cells, the x-extent of the grown triangle within the row.
+    const Edges edges(X, Y);
     unsigned acc = 0;
     for (int64_t j = j0; j <= j1; ++j) {
       if (budget == 0) return kMixed;
       spend(1);
       double xl, xr;
-      if (!slabExtent(X, Y, double(j) - m, double(j + 1) + m, xl, xr, j > j0, j < j1)) continue;
+      if (!slabExtent(edges, double(j) - m, double(j + 1) + m, xl, xr, j > j0, j < j1)) continue;
       acc |= rect(cellFloor(xl - m), cellFloor(xr + m), j, j);
       if (acc == kMixed) return kMixed;
     }
@@ -386,6 +417,9 @@ struct TriangleClassifier {
     const Sampler& smp = mask.sampler();
     const float cutoff = mask.cutoff();
     const double tol = 1e-6 * std::max(1.0, std::fabs(double(cutoff)));
+    const Edges edges(X, Y);
+    const float* const lut8 = mask.u8Lut();
+    const size_t pitch = mask.u8Pitch(), step = mask.u8Step();
     unsigned acc = 0;
     for (int64_t j = j0; j <= j1; ++j) {
       // One row: the whole grown triangle lies in the slab, its extent there is its bounding box's (slabExtent
@@ -393,9 +427,48 @@ struct TriangleClassifier {
       int64_t a = i0, b = i1;
       if (j0 != j1) {
         double xl, xr;
-        if (!slabExtent(X, Y, double(j) - m, double(j + 1) + m, xl, xr, j > j0, j < j1)) continue;
+        if (!slabExtent(edges, double(j) - m, double(j + 1) + m, xl, xr, j > j0, j < j1)) continue;
         a = cellFloor(xl - m);
         b = cellFloor(xr + m);
+      }
+      if (bitsHold(a, b + 1, j, j + 1)) {
+        // Inside the texture: the run's corners from the pass bits of its two rows (read once), as rect() would.
+        const uint64_t* word = mask.passWord(uint32_t(a), uint32_t(j));
+        const uint32_t s = uint32_t(a) & 63u;
+        const uint64_t ra = AlphaMask::passBitsAt(word, s),
+                       rb = AlphaMask::passBitsAt(word + mask.passRowWords(), s);
+        if (b - a >= 2) {
+          // A run whose corner texels all agree decides all its cells (each by its four corners) in O(1).
+          const uint64_t full = (uint64_t(2) << (b + 1 - a)) - 1;
+          if (((ra | rb) & full) == 0 || (ra & rb & full) == full) {
+            acc |= (ra & full) ? kPass : kFail;
+            if (acc == kMixed) return kMixed;
+            continue;
+          }
+        }
+        spend(uint64_t(b - a + 1));
+        // Cells whose four corners agree are decided by them, all at once; the others one by one. The region's
+        // class does not depend on the order its cells are visited in (docs/baking.md "Cells in any order"):
+        // the same answer as cell by cell.
+        const uint64_t cells = (uint64_t(2) << (b - a)) - 1;  // b − a ≤ 61
+        const uint64_t ra1 = ra >> 1, rb1 = rb >> 1;
+        const uint64_t allPass = ra & ra1 & rb & rb1 & cells, allFail = ~(ra | ra1 | rb | rb1) & cells;
+        acc |= (allPass ? kPass : 0u) | (allFail ? kFail : 0u);
+        if (acc == kMixed) return kMixed;
+        for (uint64_t mixed = cells & ~(allPass | allFail); mixed; mixed &= mixed - 1) {
+          const int64_t i = a + int64_t(std::countr_zero(mixed));
+          const uint32_t x = uint32_t(i), y = uint32_t(j);
+          if (lut8) {
+            const uint8_t* p = mask.u8Texel(x, y);
+            acc |= mixedCell(X, Y, i, j, lut8[p[0]], lut8[p[step]], lut8[p[pitch]], lut8[p[pitch + step]],
+                             acc, cutoff, tol);
+          } else {
+            acc |= mixedCell(X, Y, i, j, mask.texel(x, y), mask.texel(x + 1, y), mask.texel(x, y + 1),
+                             mask.texel(x + 1, y + 1), acc, cutoff, tol);
+          }
+          if (acc >= kMixed) return kMixed;
+        }
+        continue;
       }
       if (b - a >= 2) {
         // A run whose corner texels all agree decides all its cells (each by its four corners) in O(1).
@@ -407,27 +480,6 @@ struct TriangleClassifier {
         }
       }
       spend(uint64_t(b - a + 1));
-      if (bitsHold(a, b + 1, j, j + 1)) {
-        // Inside the texture: corners that agree are seen in the pass bits, without reading the alphas.
-        const uint64_t ra = mask.passBits(uint32_t(a), uint32_t(j)),
-                       rb = mask.passBits(uint32_t(a), uint32_t(j + 1));
-        for (int64_t i = a; i <= b; ++i) {
-          const uint64_t q0 = (ra >> (i - a)) & 3u, q1 = (rb >> (i - a)) & 3u;
-          unsigned cls;
-          if ((q0 & q1) == 3u) {
-            cls = kPass;
-          } else if ((q0 | q1) == 0) {
-            cls = kFail;
-          } else {
-            const uint32_t x = uint32_t(i), y = uint32_t(j);
-            cls = mixedCell(X, Y, i, j, mask.texel(x, y), mask.texel(x + 1, y), mask.texel(x, y + 1),
-                            mask.texel(x + 1, y + 1), acc, cutoff, tol);
-          }
-          acc |= cls;
-          if (acc >= kMixed) return kMixed;
-        }
-        continue;
-      }
       // Cell i's right corners are cell i + 1's left corners: each texel column is read once per row run.
       const uint32_t ya = wrapFast(j, th, smp.wrapT), yb = wrapFast(j + 1, th, smp.wrapT);
       const uint32_t xa0 = wrapFast(a, tw, smp.wrapS);
@@ -528,7 +580,9 @@ struct TriangleClassifier {
   }
 
   // The state of an unknown micro-triangle whose centroidPasses are `pass`.
-  State unknownFrom(int pass, const double X[3], const double Y[3]) const noexcept {
+  // `inside`: the micro-triangle lies inside the texture as samplesInside() tests (the tie-break point then reads
+  // texels inside the texture: passesInside, the same bit as passesAt).
+  State unknownFrom(int pass, const double X[3], const double Y[3], bool inside = false) const noexcept {
     if (format == Format::TwoState && unknownAs != UnknownAs::Majority)
       return unknownAs == UnknownAs::Opaque ? State::Opaque : State::Transparent;
     bool opaque;
@@ -537,7 +591,7 @@ struct TriangleClassifier {
     } else {
       // The middle child's centroid is the parent's centroid; break the tie with a point between it and
       // vertex 0.
-      opaque = passesAt((2 * X[0] + X[1] + X[2]) / 4, (2 * Y[0] + Y[1] + Y[2]) / 4);
+      opaque = sampleWhere(inside, (2 * X[0] + X[1] + X[2]) / 4, (2 * Y[0] + Y[1] + Y[2]) / 4);
     }
     if (format == Format::TwoState) return opaque ? State::Opaque : State::Transparent;
     return opaque ? State::UnknownOpaque : State::UnknownTransparent;
@@ -588,6 +642,8 @@ struct TriangleClassifier {
     ys[19] = ys[18];
     const __m128 cut = _mm_set1_ps(mask.cutoff());
     const __m128d one = _mm_set1_pd(1.0);
+    const float* const lut8 = mask.u8Lut();
+    const size_t pitch = mask.u8Pitch(), step = mask.u8Step();
     uint32_t bits = 0;
     for (int k = 0; k < 20; k += 2) {
       const __m128d x = _mm_load_pd(xs + k), y = _mm_load_pd(ys + k);
@@ -597,10 +653,20 @@ struct TriangleClassifier {
                      i1 = uint32_t(_mm_cvtsi128_si32(_mm_srli_si128(ix, 4)));
       const uint32_t j0 = uint32_t(_mm_cvtsi128_si32(iy)),
                      j1 = uint32_t(_mm_cvtsi128_si32(_mm_srli_si128(iy, 4)));
-      const __m128d c00 = _mm_set_pd(mask.texel(i1, j1), mask.texel(i0, j0));
-      const __m128d c10 = _mm_set_pd(mask.texel(i1 + 1, j1), mask.texel(i0 + 1, j0));
-      const __m128d c01 = _mm_set_pd(mask.texel(i1, j1 + 1), mask.texel(i0, j0 + 1));
-      const __m128d c11 = _mm_set_pd(mask.texel(i1 + 1, j1 + 1), mask.texel(i0 + 1, j0 + 1));
+      __m128d c00, c10, c01, c11;
+      if (lut8) {
+        // 8-bit texels: the same values as texel(), each 2×2 block from one address.
+        const uint8_t *p0 = mask.u8Texel(i0, j0), *p1 = mask.u8Texel(i1, j1);
+        c00 = _mm_set_pd(lut8[p1[0]], lut8[p0[0]]);
+        c10 = _mm_set_pd(lut8[p1[step]], lut8[p0[step]]);
+        c01 = _mm_set_pd(lut8[p1[pitch]], lut8[p0[pitch]]);
+        c11 = _mm_set_pd(lut8[p1[pitch + step]], lut8[p0[pitch + step]]);
+      } else {
+        c00 = _mm_set_pd(mask.texel(i1, j1), mask.texel(i0, j0));
+        c10 = _mm_set_pd(mask.texel(i1 + 1, j1), mask.texel(i0 + 1, j0));
+        c01 = _mm_set_pd(mask.texel(i1, j1 + 1), mask.texel(i0, j0 + 1));
+        c11 = _mm_set_pd(mask.texel(i1 + 1, j1 + 1), mask.texel(i0 + 1, j0 + 1));
+      }
       const __m128d gx = _mm_sub_pd(one, fx), gy = _mm_sub_pd(one, fy);
       const __m128d top = _mm_add_pd(_mm_mul_pd(c00, gx), _mm_mul_pd(c10, fx));
       const __m128d bot = _mm_add_pd(_mm_mul_pd(c01, gx), _mm_mul_pd(c11, fx));
@@ -622,7 +688,8 @@ struct TriangleClassifier {
     unsigned vpass = vb & 7u;
     int pass[4];
     const double pX[3] = {cX[0][0], cX[2][1], cX[3][2]}, pY[3] = {cY[0][0], cY[2][1], cY[3][2]};
-    if (!samplesInside(pX, pY)) {
+    const bool inside = samplesInside(pX, pY);
+    if (!inside) {
       leafSamples<false>(cX, cY, vpass, pass);
     } else if (shift == 0) {
       leafSamples<true>(cX, cY, vpass, pass);
@@ -633,8 +700,8 @@ struct TriangleClassifier {
       leafSamples<true>(cX, cY, vpass, pass);
 #endif
     }
+    State st[4];
     for (uint32_t c = 0; c < 4; ++c) {
-      const uint32_t index = prefix * 4 + c;
       const unsigned vbits = ((vpass >> kLeafVertex[c][0]) & 1u) |
                              (((vpass >> kLeafVertex[c][1]) & 1u) << 1) |
                              (((vpass >> kLeafVertex[c][2]) & 1u) << 2);
@@ -642,12 +709,22 @@ struct TriangleClassifier {
       if ((pass[c] == 4 && vbits == 7u) || (pass[c] == 0 && vbits == 0)) {
         const unsigned r = region(cX[c], cY[c], kLeafCells);
         if (r == kPass || r == kFail) {
-          fill(index, 1, r == kPass ? State::Opaque : State::Transparent);
+          st[c] = r == kPass ? State::Opaque : State::Transparent;
           continue;
         }
       }
       ++unknown;
-      fill(index, 1, unknownFrom(pass[c], cX[c], cY[c]));
+      st[c] = unknownFrom(pass[c], cX[c], cY[c], inside);
+    }
+    // The 4 leaves (indices 4·prefix .. 4·prefix + 3) fill one byte (4-state) or one nibble (2-state): stored at once.
+    if (format == Format::FourState) {
+      bytes[prefix] = uint8_t((uint32_t(st[0]) & 3u) | (uint32_t(st[1]) & 3u) << 2 |
+                              (uint32_t(st[2]) & 3u) << 4 | (uint32_t(st[3]) & 3u) << 6);
+    } else {
+      const uint32_t nibble = (uint32_t(st[0]) & 1u) | (uint32_t(st[1]) & 1u) << 1 |
+                              (uint32_t(st[2]) & 1u) << 2 | (uint32_t(st[3]) & 1u) << 3;
+      const uint32_t shift = 4u * (prefix & 1u);
+      bytes[prefix >> 1] = uint8_t((bytes[prefix >> 1] & ~(0xfu << shift)) | (nibble << shift));
     }
   }
 
@@ -1318,21 +1395,77 @@ Result<SceneBake> bakeCore(const CoreInputs& ci, const BakeOptions& o) {
 
 void AlphaMask::build() {
   const size_t stride = size_t(w_) + 1;
-  sat_.assign(stride * (size_t(h_) + 1), 0);
+  satSize_ = stride * (size_t(h_) + 1);
+  // Not zero-filled: row 0 and column 0 are set to 0 and every other entry is written once below.
+  sat_.reset(new uint32_t[satSize_]);
   words_ = size_t(w_) / 64 + 1;
   // One word of padding: passBits(x, y) reads the word after x's, which for the last row is past the rows.
   bits_.assign(words_ * h_ + 1, 0);
-  for (uint32_t y = 0; y < h_; ++y) {
-    uint32_t row = 0;
-    const uint32_t* above = sat_.data() + size_t(y) * stride;
-    uint32_t* cur = sat_.data() + (size_t(y) + 1) * stride;
-    uint64_t* bits = bits_.data() + size_t(y) * words_;
-    for (uint32_t x = 0; x < w_; ++x) {
-      const bool pass = alphaTestPasses(texel(x, y), cutoff_);
-      row += pass ? 1u : 0u;
-      cur[x + 1] = above[x + 1] + row;
-      bits[x >> 6] |= uint64_t(pass) << (x & 63u);
+  uint32_t* sat = sat_.get();
+  std::fill(sat, sat + stride, 0u);
+  // Integer texels: the alpha test of every value once (the same float and compare as texel()), then a table look-up.
+  std::vector<uint8_t> passOf;
+  if (kind_ == Kind::U8 || (kind_ == Kind::U16 && uint64_t(w_) * h_ > 65536)) {
+    passOf.resize(kind_ == Kind::U8 ? 256 : 65536);
+    for (size_t v = 0; v < passOf.size(); ++v) passOf[v] = alphaTestPasses(lut_[v], cutoff_) ? 1 : 0;
+  }
+  // Per row: its pass bits first, then its summed-area row from them (row prefix sums of the bits plus the row above).
+  auto rows = [&](auto passAt) {
+    for (uint32_t y = 0; y < h_; ++y) {
+      uint64_t* bits = bits_.data() + size_t(y) * words_;
+      const uint8_t* p = base_ + size_t(y) * pitch_;
+      uint64_t word = 0;
+      for (uint32_t x = 0; x < w_; ++x) {
+        word |= uint64_t(passAt(p, x, y)) << (x & 63u);
+        if ((x & 63u) == 63u) {
+          bits[x >> 6] = word;
+          word = 0;
+        }
+      }
+      if (w_ & 63u) bits[w_ >> 6] = word;
+      const uint32_t* above = sat + size_t(y) * stride;
+      uint32_t* cur = sat + (size_t(y) + 1) * stride;
+      cur[0] = 0;
+      uint32_t x = 0, row = 0;
+#if defined(__SSE2__)
+      // Four texels at a time: the prefix sums of their 4 bits from a table, plus the running count of the row.
+      alignas(16) static constexpr uint32_t kPrefix[16][4] = {
+          {0, 0, 0, 0}, {1, 1, 1, 1}, {0, 1, 1, 1}, {1, 2, 2, 2}, {0, 0, 1, 1}, {1, 1, 2, 2},
+          {0, 1, 2, 2}, {1, 2, 3, 3}, {0, 0, 0, 1}, {1, 1, 1, 2}, {0, 1, 1, 2}, {1, 2, 2, 3},
+          {0, 0, 1, 2}, {1, 1, 2, 3}, {0, 1, 2, 3}, {1, 2, 3, 4}};
+      __m128i carry = _mm_setzero_si128();
+      for (; x + 4 <= w_; x += 4) {
+        const uint32_t nibble = uint32_t(bits[x >> 6] >> (x & 63u)) & 15u;
+        const __m128i v =
+            _mm_add_epi32(_mm_load_si128(reinterpret_cast<const __m128i*>(kPrefix[nibble])), carry);
+        const __m128i a = _mm_loadu_si128(reinterpret_cast<const __m128i*>(above + x + 1));
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(cur + x + 1), _mm_add_epi32(v, a));
+        carry = _mm_shuffle_epi32(v, 0xff);
+      }
+      row = uint32_t(_mm_cvtsi128_si32(carry));
+#endif
+      for (; x < w_; ++x) {
+        row += uint32_t(bits[x >> 6] >> (x & 63u)) & 1u;
+        cur[x + 1] = above[x + 1] + row;
+      }
     }
+  };
+  if (kind_ == Kind::U8 && !passOf.empty()) {
+    const uint8_t* t = passOf.data();
+    const size_t bpp = bpp_;
+    rows([t, bpp](const uint8_t* p, uint32_t x, uint32_t) -> uint32_t { return t[p[size_t(x) * bpp]]; });
+  } else if (kind_ == Kind::U16 && !passOf.empty()) {
+    const uint8_t* t = passOf.data();
+    const size_t bpp = bpp_;
+    rows([t, bpp](const uint8_t* p, uint32_t x, uint32_t) -> uint32_t {
+      uint16_t v;
+      std::memcpy(&v, p + size_t(x) * bpp, 2);
+      return t[v];
+    });
+  } else {
+    rows([this](const uint8_t*, uint32_t x, uint32_t y) -> uint32_t {
+      return alphaTestPasses(texel(x, y), cutoff_) ? 1u : 0u;
+    });
   }
 }
 
@@ -1418,8 +1551,8 @@ Status validateTexture(const TextureView& t) {
 
 uint64_t AlphaMask::rect(uint32_t x0, uint32_t x1, uint32_t y0, uint32_t y1) const noexcept {
   const size_t stride = size_t(w_) + 1;
-  const uint32_t* a = sat_.data() + size_t(y0) * stride;
-  const uint32_t* b = sat_.data() + (size_t(y1) + 1) * stride;
+  const uint32_t* a = sat_.get() + size_t(y0) * stride;
+  const uint32_t* b = sat_.get() + (size_t(y1) + 1) * stride;
   return uint32_t(b[x1 + 1] - b[x0] - a[x1 + 1] + a[x0]);  // modular arithmetic; the true count fits
 }
 

@@ -42,6 +42,42 @@ TEST(AlphaMask, CountMatchesBruteForceForEveryWrap) {
     }
 }
 
+// Exact pass counts of rectangles inside 8-bit and 16-bit textures (their masks are built through a pass table, the
+// summed-area rows four texels at a time) for widths around 4 and the 64-bit word size, against brute force.
+TEST(AlphaMask, CountsOfIntegerTexturesAreExact) {
+  std::mt19937 rng(17);
+  for (uint32_t w : {1u, 3u, 4u, 5u, 8u, 63u, 64u, 65u, 130u})
+    for (AlphaStorage st : {AlphaStorage::UInt8, AlphaStorage::UInt16}) {
+      const uint32_t h = st == AlphaStorage::UInt16 ? 600 : 9;  // 16-bit: above 65,536 texels for the widest
+      AlphaTexture tex;
+      tex.width = w;
+      tex.height = h;
+      tex.storage = st;
+      tex.lut = AlphaTexture::table(st, 1.0f);
+      std::uniform_int_distribution<uint32_t> v(0, st == AlphaStorage::UInt8 ? 255 : 65535);
+      for (size_t i = 0; i < size_t(w) * h; ++i) {
+        if (st == AlphaStorage::UInt8)
+          tex.alpha8.push_back(uint8_t(v(rng)));
+        else
+          tex.alpha16.push_back(uint16_t(v(rng)));
+      }
+      ASSERT_TRUE(tex.consistent());
+      const AlphaMask mask(tex, Sampler{}, 0.37f);
+      std::uniform_int_distribution<int64_t> dx(0, w - 1), dy(0, h - 1);
+      for (int k = 0; k < 200; ++k) {
+        int64_t x0 = dx(rng), x1 = dx(rng), y0 = dy(rng), y1 = dy(rng);
+        if (x0 > x1) std::swap(x0, x1);
+        if (y0 > y1) std::swap(y0, y1);
+        uint64_t pass = 0;
+        for (int64_t y = y0; y <= y1; ++y)
+          for (int64_t x = x0; x <= x1; ++x) pass += tex.at(uint32_t(x), uint32_t(y)) >= 0.37f;
+        const AlphaMask::Count c = mask.count(x0, x1, y0, y1);
+        EXPECT_EQ(c.pass, pass) << w << " " << x0 << ".." << x1 << " × " << y0 << ".." << y1;
+        EXPECT_EQ(c.total, uint64_t(x1 - x0 + 1) * uint64_t(y1 - y0 + 1));
+      }
+    }
+}
+
 // A hard vertical edge between texel columns 31 and 32 (opaque left). Exactly the micro-triangles whose
 // texel-space x-extent reaches across the edge are unknown; all others are known.
 // The pass bits against the alpha test of every texel, for widths around the 64-bit word size.

@@ -64,11 +64,12 @@ void expectSameArray(const OmmArray& a, const OmmArray& b) {
 
 const Sampler kSampler{Wrap::Repeat, Wrap::MirroredRepeat, Filter::Linear};
 
-TEST(BakeScene, EveryTexelFormatAndLayoutGivesTheFloatBake) {
-  const uint32_t W = 48, H = 40;
+// Every texel format (8/16-bit through their pass tables and 8-bit texel reads, float directly) gives the bake of the
+// float texture with the same values.
+void expectEveryFormatGivesTheFloatBake(uint32_t W, uint32_t H, uint32_t level, uint32_t triangles) {
   const std::vector<uint8_t> a = alpha8(W, H);
   const AlphaTexture ft = floatTexture(a, W, H);
-  const std::vector<float> uv = randomUvs(200, 3);
+  const std::vector<float> uv = randomUvs(triangles, 3);
   // Reference: the per-geometry bake of the float texture.
   Material m;
   m.name = "m";
@@ -76,7 +77,7 @@ TEST(BakeScene, EveryTexelFormatAndLayoutGivesTheFloatBake) {
   m.sampler = kSampler;
   m.alpha = std::make_shared<AlphaTexture>(ft);
   BakeOptions o;
-  o.level = 4;
+  o.level = level;
   auto ref = bakeGeometry(geometryOf(uv, "g"), m, o);
   ASSERT_TRUE(ref.ok());
 
@@ -143,6 +144,16 @@ TEST(BakeScene, EveryTexelFormatAndLayoutGivesTheFloatBake) {
     ASSERT_TRUE(r.ok()) << r.error().message;
     expectSameArray(r->micromaps.arrays[0], ref->array);
   }
+}
+
+TEST(BakeScene, EveryTexelFormatAndLayoutGivesTheFloatBake) {
+  expectEveryFormatGivesTheFloatBake(48, 40, 4, 200);
+}
+
+// Above 65,536 texels a 16-bit mask is built through its pass table; micro-triangles a few texels wide take the
+// leaves' 8-bit texel reads and the bitwise row runs.
+TEST(BakeScene, LargeTexturesInEveryTexelFormatGiveTheFloatBake) {
+  expectEveryFormatGivesTheFloatBake(300, 260, 6, 40);
 }
 
 // A scene of several geometries sharing textures, with repeated and period-shifted triangles.

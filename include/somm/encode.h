@@ -398,6 +398,10 @@ struct SdagRefClass {
 SOMM_ENCODE_INLINE uint32_t sdagPick(uint32_t bit, uint32_t a, uint32_t b) noexcept {
   return b ^ ((a ^ b) & (0u - bit));
 }
+// The record's bits from bit pos on (at least 56 of them), in one unaligned load.
+SOMM_ENCODE_INLINE uint64_t sdagBitsFrom(const uint8_t* p, uint32_t pos) noexcept {
+  return load64(p + (pos >> 3)) >> (pos & 7u);
+}
 // x: the record's bits from bit pos on (at least 3n of them: the flag vectors).
 SOMM_ENCODE_INLINE SdagRefClass sdagRefClass(const uint8_t* p, uint32_t pos, uint32_t n, uint32_t i,
                                              uint32_t w, uint32_t tier, uint32_t mid, uint64_t x) noexcept {
@@ -440,11 +444,11 @@ SOMM_ENCODE_INLINE SdagRefClass sdagLeafRefClass(const uint8_t* p, uint32_t pos,
 // The same reading the flags from p at bit pos.
 SOMM_ENCODE_INLINE SdagRefClass sdagRefClass(const uint8_t* p, uint32_t pos, uint32_t n, uint32_t i,
                                              uint32_t w, uint32_t tier, uint32_t mid) noexcept {
-  return sdagRefClass(p, pos, n, i, w, tier, mid, load64(p + (pos >> 3)) >> (pos & 7u));
+  return sdagRefClass(p, pos, n, i, w, tier, mid, sdagBitsFrom(p, pos));
 }
 SOMM_ENCODE_INLINE SdagRefClass sdagLeafRefClass(const uint8_t* p, uint32_t pos, uint32_t n, uint32_t i,
                                                  uint32_t w, uint32_t tier, uint32_t mid) noexcept {
-  return sdagLeafRefClass(p, pos, n, i, w, tier, mid, load64(p + (pos >> 3)) >> (pos & 7u));
+  return sdagLeafRefClass(p, pos, n, i, w, tier, mid, sdagBitsFrom(p, pos));
 }
 // The byte offset (in the data) of the child that reference number i of the record at byte offset `at` (p) refers
 // to, in region k (leafBytes: 2b for a leaf region, 0 for a node region): a local node is at a byte offset from
@@ -464,7 +468,7 @@ SOMM_ENCODE_INLINE uint32_t sdagChildAt(const SdagDirectory& dir, const uint8_t*
 }
 SOMM_ENCODE_INLINE uint32_t sdagChildAt(const SdagDirectory& dir, const uint8_t* p, uint32_t at, uint32_t pos,
                                         uint32_t n, uint32_t i, uint32_t k, uint32_t leafBytes) noexcept {
-  return sdagChildAt(dir, p, at, pos, n, i, k, leafBytes, load64(p + (pos >> 3)) >> (pos & 7u));
+  return sdagChildAt(dir, p, at, pos, n, i, k, leafBytes, sdagBitsFrom(p, pos));
 }
 // The flag bits of a node record with n node children (from bit 32 - n): one load from byte 2, independent of
 // the mask (16 - n <= 16 bits skipped leaves >= 48).
@@ -599,6 +603,13 @@ SOMM_ENCODE_INLINE uint32_t sdagStepDown(const uint8_t* data, const SdagDirector
   const uint32_t n = popcount16(m);
   return sdagChildAt(dir, p, at, 32u - n, n, below, k, h == 2u ? 2u * b : 0u, sdagNodeFlags(p, n));
 }
+// The 16 states (b bits each) at `at`: a leaf's, or a uniform state's (at < 4) repeated.
+template <Format F>
+SOMM_ENCODE_INLINE uint32_t sdagLeafWordAt(const uint8_t* data, uint32_t at) noexcept {
+  constexpr uint32_t repeat = F == Format::TwoState ? 0xffffu : 0x55555555u;
+  if (at < 4) return at * repeat;
+  return F == Format::TwoState ? load16(data + at) : load32(data + at);
+}
 // A step of the memo's walk from the record of height H at byte offset `at` (put on the entry's path): the child
 // covering `index` (its byte offset), or the state (< 4) of a uniform child, then also the path below it.
 template <Format F, uint32_t H>
@@ -616,15 +627,13 @@ SOMM_ENCODE_INLINE uint32_t sdagMemoStep(const uint8_t* data, const SdagDirector
 template <Format F>
 inline uint32_t sdagMemoLeafWord(const uint8_t* data, const SdagDirectory& dir, SdagMemo::Entry& e,
                                  uint32_t index) noexcept {
-  constexpr uint32_t repeat = F == Format::TwoState ? 0xffffu : 0x55555555u;
   const uint32_t level = e.level, top = level >> 1;  // the root's height (even) or its children's (odd)
   uint32_t at, h = (bitWidth32(index ^ e.index) + 3u) >> 2;  // the lowest height whose block holds both
   e.index = index;
   if (level < 4) {  // at most a leaf under a 4-way root: nothing to keep
     if (level <= 1) return data[e.root];
     at = level == 3 ? sdagRootChild<F>(data, dir, e.root, level, index) : e.root;
-    if (at < 4) return at * repeat;
-    return F == Format::TwoState ? load16(data + at) : load32(data + at);
+    return sdagLeafWordAt<F>(data, at);
   }
   if (h > top) {  // from the root (a 4-way root: from its child of height top)
     h = top;
@@ -648,13 +657,12 @@ inline uint32_t sdagMemoLeafWord(const uint8_t* data, const SdagDirectory& dir, 
         if ((at = sdagMemoStep<F, 3>(data, dir, e, at, index)) < 4) break;
         [[fallthrough]];
       default:
-        if ((at = sdagMemoStep<F, 2>(data, dir, e, at, index)) < 4) break;
-        return F == Format::TwoState ? load16(data + at) : load32(data + at);
+        at = sdagMemoStep<F, 2>(data, dir, e, at, index);
     }
   } else {  // a uniform child of the 4-way root (or a uniform block on the path: then already so below)
     for (uint32_t j = 0; j + 2 <= h; ++j) e.path[j] = at;
   }
-  return at * repeat;  // a uniform block
+  return sdagLeafWordAt<F>(data, at);  // a leaf, or a uniform block
 }
 
 // The leaf word around `index` when the entry's last walk was in the same height-2 block (the common case of
@@ -662,13 +670,11 @@ inline uint32_t sdagMemoLeafWord(const uint8_t* data, const SdagDirectory& dir, 
 template <Format F>
 SOMM_ENCODE_INLINE uint32_t sdagMemoNextLeafWord(const uint8_t* data, const SdagDirectory& dir,
                                                  SdagMemo::Entry& e, uint32_t index) noexcept {
-  constexpr uint32_t repeat = F == Format::TwoState ? 0xffffu : 0x55555555u;
   if (((index ^ e.index) >> 8) != 0 || e.level < 4) return sdagMemoLeafWord<F>(data, dir, e, index);
   e.index = index;
   uint32_t at = e.path[0];
   if (at >= 4) at = sdagStepDown<F>(data, dir, at, 2u, index);
-  if (at < 4) return at * repeat;
-  return F == Format::TwoState ? load16(data + at) : load32(data + at);
+  return sdagLeafWordAt<F>(data, at);
 }
 
 inline State sdagState(const uint8_t* data, const SdagDirectory& dir, uint32_t offset, uint32_t level,
@@ -691,7 +697,7 @@ constexpr uint64_t packedIndexBytes(uint64_t triangles, uint32_t bits) noexcept 
 }
 SOMM_ENCODE_INLINE int32_t packedIndex(const uint8_t* p, uint32_t bits, uint64_t t) noexcept {
   const uint64_t pos = t * bits, top = uint64_t(1) << bits;
-  const uint64_t v = (load64(p + (pos >> 3)) >> (pos & 7u)) & (top - 1u);
+  const uint64_t v = (sdagBitsFrom(p, pos)) & (top - 1u);
   return v >= top - 4u ? int32_t(int64_t(v) - int64_t(top)) : int32_t(v);
 }
 // The rank-packed index buffer (flags bit 1; chosen when smaller than the plain one): the triangles whose value

@@ -193,8 +193,8 @@ struct BakeInputs {
   }
 };
 
-// The alpha test of one (texture, channel, scale, sampler, cutoff), prepared for fast conservative queries: a
-// summed-area table of the texels' pass bits; texel values are read from the caller's texture at its own precision
+// The alpha test of one (texture, channel, scale, sampler, cutoff), prepared for fast conservative queries: the
+// texels' pass bits (one bit each) and a summed-area table of their 64-texel words; texel values are read from the caller's texture at its own precision
 // (through a table for 8/16-bit formats, never a float copy). Building it is O(W·H); bakeScene builds one per
 // distinct (texture, scale, sampler, cutoff) and shares it by every geometry and material. The texture must outlive
 // the mask.
@@ -250,12 +250,15 @@ class AlphaMask {
   }
 
   // Number of passing texels in the (unwrapped, inclusive) texel rectangle [x0, x1] × [y0, y1] after
-  // wrapping, and the number of texels it covers (counted with multiplicity per wrapped interval). Used to
-  // decide uniformity.
+  // wrapping, and the number of texels it covers (counted with multiplicity per wrapped interval).
   struct Count {
     uint64_t pass = 0, total = 0;
   };
   Count count(int64_t x0, int64_t x1, int64_t y0, int64_t y1) const noexcept;
+  // Whether the same rectangle (after wrapping) holds a passing texel (bit 0) and a failing one (bit 1): what
+  // count() decides uniformity by (pass > 0, pass < total), answered from the word table and the pass bits with
+  // an early exit (docs/baking.md "Pass bits").
+  unsigned passFail(int64_t x0, int64_t x1, int64_t y0, int64_t y1) const noexcept;
 
   // The alpha test of the 64 texels (x, y) .. (x + 63, y) of row y (x < W, y < H) as bits 0..63; bits for texels at
   // or beyond W are unspecified. (docs/baking.md "Pass bits".)
@@ -274,7 +277,7 @@ class AlphaMask {
 
   // Bytes held by the mask (its tables), for memory accounting.
   size_t memoryBytes() const noexcept {
-    return satSize_ * sizeof(uint32_t) + bits_.size() * sizeof(uint64_t) + lutBytes_;
+    return wordSatSize_ * sizeof(uint32_t) + bits_.size() * sizeof(uint64_t) + lutBytes_;
   }
 
  private:
@@ -292,14 +295,15 @@ class AlphaMask {
   uint32_t w_ = 0, h_ = 0;
   Sampler sampler_;
   float cutoff_ = 0.5f;
-  std::shared_ptr<uint32_t[]>
-      sat_;  // (w+1)·(h+1) summed-area table of pass bits (immutable once built: shared by copies)
-  size_t satSize_ = 0;
+  // The word table: (h + 1)·(words_ + 1) counts, entry (y, k) = the passing texels of rows < y in words < k (the
+  // summed-area table of the rows' 64-texel words; immutable once built: shared by copies).
+  std::shared_ptr<uint32_t[]> wordSat_;
+  size_t wordSatSize_ = 0;
   std::vector<uint64_t> bits_;  // h rows of words_ words: bit x % 64 of word x / 64 is texel x's alpha test
   size_t words_ = 0;  // w / 64 + 1 (a spare word, so passBits may read one word past the row's last texel)
   void build();
-  uint64_t rect(uint32_t x0, uint32_t x1, uint32_t y0,
-                uint32_t y1) const noexcept;  // inclusive, wrapped coords
+  uint64_t rectPass(uint32_t x0, uint32_t x1, uint32_t y0, uint32_t y1) const noexcept;
+  unsigned rectPassFail(uint32_t x0, uint32_t x1, uint32_t y0, uint32_t y1) const noexcept;
 };
 
 // A texture view's problem in one line ("texture 'leaf.png': row pitch 10 is less than width·4 = 16"), or Ok.

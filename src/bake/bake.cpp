@@ -200,8 +200,8 @@ struct TriangleClassifier {
       }
       return (any ? kPass : 0u) | (all != full ? kFail : 0u);
     }
-    const AlphaMask::Count c = mask.count(i0, i1 + ext, j0, j1 + ext);
-    return (c.pass > 0 ? kPass : 0u) | (c.pass < c.total ? kFail : 0u);
+    const unsigned pf = mask.passFail(i0, i1 + ext, j0, j1 + ext);
+    return (pf & 1u ? kPass : 0u) | (pf & 2u ? kFail : 0u);
   }
 
   // The x-extent [xl, xr] of the triangle within the horizontal slab [ya, yb]; false when they do not meet.
@@ -1394,22 +1394,16 @@ Result<SceneBake> bakeCore(const CoreInputs& ci, const BakeOptions& o) {
 }  // namespace
 
 void AlphaMask::build() {
-  const size_t stride = size_t(w_) + 1;
-  satSize_ = stride * (size_t(h_) + 1);
-  // Not zero-filled: row 0 and column 0 are set to 0 and every other entry is written once below.
-  sat_.reset(new uint32_t[satSize_]);
   words_ = size_t(w_) / 64 + 1;
-  // One word of padding: passBits(x, y) reads the word after x's, which for the last row is past the rows.
+  // One word of padding: passBits(x, y) reads the word after x's, which for the last row is past the rows. Bits of
+  // texels at or beyond W stay 0 (the word table counts whole words).
   bits_.assign(words_ * h_ + 1, 0);
-  uint32_t* sat = sat_.get();
-  std::fill(sat, sat + stride, 0u);
   // Integer texels: the alpha test of every value once (the same float and compare as texel()), then a table look-up.
   std::vector<uint8_t> passOf;
   if (kind_ == Kind::U8 || (kind_ == Kind::U16 && uint64_t(w_) * h_ > 65536)) {
     passOf.resize(kind_ == Kind::U8 ? 256 : 65536);
     for (size_t v = 0; v < passOf.size(); ++v) passOf[v] = alphaTestPasses(lut_[v], cutoff_) ? 1 : 0;
   }
-  // Per row: its pass bits first, then its summed-area row from them (row prefix sums of the bits plus the row above).
   auto rows = [&](auto passAt) {
     for (uint32_t y = 0; y < h_; ++y) {
       uint64_t* bits = bits_.data() + size_t(y) * words_;
@@ -1423,34 +1417,40 @@ void AlphaMask::build() {
         }
       }
       if (w_ & 63u) bits[w_ >> 6] = word;
-      const uint32_t* above = sat + size_t(y) * stride;
-      uint32_t* cur = sat + (size_t(y) + 1) * stride;
-      cur[0] = 0;
-      uint32_t x = 0, row = 0;
-#if defined(__SSE2__)
-      // Four texels at a time: the prefix sums of their 4 bits from a table, plus the running count of the row.
-      alignas(16) static constexpr uint32_t kPrefix[16][4] = {
-          {0, 0, 0, 0}, {1, 1, 1, 1}, {0, 1, 1, 1}, {1, 2, 2, 2}, {0, 0, 1, 1}, {1, 1, 2, 2},
-          {0, 1, 2, 2}, {1, 2, 3, 3}, {0, 0, 0, 1}, {1, 1, 1, 2}, {0, 1, 1, 2}, {1, 2, 2, 3},
-          {0, 0, 1, 2}, {1, 1, 2, 3}, {0, 1, 2, 3}, {1, 2, 3, 4}};
-      __m128i carry = _mm_setzero_si128();
-      for (; x + 4 <= w_; x += 4) {
-        const uint32_t nibble = uint32_t(bits[x >> 6] >> (x & 63u)) & 15u;
-        const __m128i v =
-            _mm_add_epi32(_mm_load_si128(reinterpret_cast<const __m128i*>(kPrefix[nibble])), carry);
-        const __m128i a = _mm_loadu_si128(reinterpret_cast<const __m128i*>(above + x + 1));
-        _mm_storeu_si128(reinterpret_cast<__m128i*>(cur + x + 1), _mm_add_epi32(v, a));
-        carry = _mm_shuffle_epi32(v, 0xff);
-      }
-      row = uint32_t(_mm_cvtsi128_si32(carry));
-#endif
-      for (; x < w_; ++x) {
-        row += uint32_t(bits[x >> 6] >> (x & 63u)) & 1u;
-        cur[x + 1] = above[x + 1] + row;
-      }
     }
   };
-  if (kind_ == Kind::U8 && !passOf.empty()) {
+  // 8-bit texels one byte apart whose alpha test is a threshold on the value (passOf[v] = v >= t, as for every
+  // non-decreasing value table): 16 texels per compare.
+  uint32_t threshold = 256;
+  bool isThreshold = kind_ == Kind::U8 && !passOf.empty() && bpp_ == 1;
+  for (uint32_t v = 0; isThreshold && v < 256; ++v) {
+    if (passOf[v] && threshold == 256) threshold = v;
+    isThreshold = passOf[v] == (v >= threshold ? 1 : 0);
+  }
+#if defined(__SSE2__)
+  if (isThreshold) {
+    // v >= t  ⟺  max(v, t) == v (unsigned bytes); t = 256 (nothing passes): every bit 0.
+    const __m128i t = _mm_set1_epi8(char(uint8_t(std::min<uint32_t>(threshold, 255))));
+    const uint64_t none = threshold == 256 ? 0 : ~uint64_t(0);
+    for (uint32_t y = 0; y < h_; ++y) {
+      uint64_t* bits = bits_.data() + size_t(y) * words_;
+      const uint8_t* p = base_ + size_t(y) * pitch_;
+      uint32_t x = 0;
+      for (; x + 64 <= w_; x += 64) {
+        uint64_t word = 0;
+        for (uint32_t q = 0; q < 4; ++q) {
+          const __m128i v = _mm_loadu_si128(reinterpret_cast<const __m128i*>(p + x + 16 * q));
+          word |= uint64_t(uint32_t(_mm_movemask_epi8(_mm_cmpeq_epi8(_mm_max_epu8(v, t), v)))) << (16 * q);
+        }
+        bits[x >> 6] = word & none;
+      }
+      uint64_t word = 0;
+      for (; x < w_; ++x) word |= uint64_t(p[x] >= threshold ? 1u : 0u) << (x & 63u);
+      if (w_ & 63u) bits[w_ >> 6] = word;
+    }
+  } else
+#endif
+      if (kind_ == Kind::U8 && !passOf.empty()) {
     const uint8_t* t = passOf.data();
     const size_t bpp = bpp_;
     rows([t, bpp](const uint8_t* p, uint32_t x, uint32_t) -> uint32_t { return t[p[size_t(x) * bpp]]; });
@@ -1466,6 +1466,23 @@ void AlphaMask::build() {
     rows([this](const uint8_t*, uint32_t x, uint32_t y) -> uint32_t {
       return alphaTestPasses(texel(x, y), cutoff_) ? 1u : 0u;
     });
+  }
+  // The word table: a summed-area table over the rows' words (1/64 of a per-texel table).
+  const size_t stride = words_ + 1;
+  wordSatSize_ = stride * (size_t(h_) + 1);
+  wordSat_.reset(new uint32_t[wordSatSize_]);
+  uint32_t* ws = wordSat_.get();
+  std::fill(ws, ws + stride, 0u);
+  for (uint32_t y = 0; y < h_; ++y) {
+    const uint64_t* bits = bits_.data() + size_t(y) * words_;
+    const uint32_t* above = ws + size_t(y) * stride;
+    uint32_t* cur = ws + (size_t(y) + 1) * stride;
+    cur[0] = 0;
+    uint32_t row = 0;
+    for (size_t k = 0; k < words_; ++k) {
+      row += uint32_t(std::popcount(bits[k]));
+      cur[k + 1] = above[k + 1] + row;
+    }
   }
 }
 
@@ -1549,11 +1566,54 @@ Status validateTexture(const TextureView& t) {
   return Ok{};
 }
 
-uint64_t AlphaMask::rect(uint32_t x0, uint32_t x1, uint32_t y0, uint32_t y1) const noexcept {
-  const size_t stride = size_t(w_) + 1;
-  const uint32_t* a = sat_.get() + size_t(y0) * stride;
-  const uint32_t* b = sat_.get() + (size_t(y1) + 1) * stride;
-  return uint32_t(b[x1 + 1] - b[x0] - a[x1 + 1] + a[x0]);  // modular arithmetic; the true count fits
+// Passing texels in [x0, x1] × [y0, y1] (inside the texture): whole words from the word table, the partial words
+// at either end row by row.
+uint64_t AlphaMask::rectPass(uint32_t x0, uint32_t x1, uint32_t y0, uint32_t y1) const noexcept {
+  const size_t stride = words_ + 1;
+  const uint32_t k0 = x0 >> 6, k1 = x1 >> 6, s0 = x0 & 63u, s1 = x1 & 63u;
+  const uint64_t lo = ~uint64_t(0) << s0, hi = ~uint64_t(0) >> (63u - s1);
+  const uint64_t* row = bits_.data() + size_t(y0) * words_;
+  uint64_t n = 0;
+  if (k0 == k1) {
+    for (uint32_t y = y0; y <= y1; ++y, row += words_) n += uint64_t(std::popcount(row[k0] & lo & hi));
+    return n;
+  }
+  // Whole words (k0, k1) exclusive; the end words' bits in the rectangle row by row.
+  const uint32_t* a = wordSat_.get() + size_t(y0) * stride;
+  const uint32_t* b = wordSat_.get() + (size_t(y1) + 1) * stride;
+  n = uint32_t(b[k1] - b[k0 + 1] - a[k1] + a[k0 + 1]);  // modular arithmetic; the true count fits
+  for (uint32_t y = y0; y <= y1; ++y, row += words_)
+    n += uint64_t(std::popcount(row[k0] & lo)) + uint64_t(std::popcount(row[k1] & hi));
+  return n;
+}
+
+// Bit 0: [x0, x1] × [y0, y1] (inside the texture) holds a passing texel; bit 1: a failing one. The whole words from
+// the word table first (O(1)); the partial end words row by row only while a class is still unseen.
+unsigned AlphaMask::rectPassFail(uint32_t x0, uint32_t x1, uint32_t y0, uint32_t y1) const noexcept {
+  const size_t stride = words_ + 1;
+  const uint32_t k0 = x0 >> 6, k1 = x1 >> 6, s0 = x0 & 63u, s1 = x1 & 63u;
+  uint64_t lo = ~uint64_t(0) << s0, hi = ~uint64_t(0) >> (63u - s1);
+  unsigned seen = 0;
+  uint32_t kl = k0, kr = k1;  // the end words scanned row by row (one when k0 == k1)
+  if (k0 == k1) {
+    lo &= hi;
+    hi = 0;
+  } else if (k1 > k0 + 1) {
+    const uint32_t* a = wordSat_.get() + size_t(y0) * stride;
+    const uint32_t* b = wordSat_.get() + (size_t(y1) + 1) * stride;
+    const uint64_t pass = uint32_t(b[k1] - b[k0 + 1] - a[k1] + a[k0 + 1]);
+    const uint64_t total = uint64_t(k1 - k0 - 1) * 64u * (uint64_t(y1) - y0 + 1);
+    seen = (pass > 0 ? 1u : 0u) | (pass < total ? 2u : 0u);
+    if (seen == 3u) return 3u;
+  }
+  const uint64_t* row = bits_.data() + size_t(y0) * words_;
+  for (uint32_t y = y0; y <= y1; ++y, row += words_) {
+    const uint64_t l = row[kl], r = hi ? row[kr] : 0;
+    seen |= ((l & lo) | (r & hi)) != 0 ? 1u : 0u;
+    seen |= ((~l & lo) | (~r & hi)) != 0 ? 2u : 0u;
+    if (seen == 3u) return 3u;
+  }
+  return seen;
 }
 
 AlphaMask::Count AlphaMask::count(int64_t x0, int64_t x1, int64_t y0, int64_t y1) const noexcept {
@@ -1563,10 +1623,23 @@ AlphaMask::Count AlphaMask::count(int64_t x0, int64_t x1, int64_t y0, int64_t y1
   Count c;
   for (int j = 0; j < ny; ++j)
     for (int i = 0; i < nx; ++i) {
-      c.pass += rect(xs[i].lo, xs[i].hi, ys[j].lo, ys[j].hi);
+      c.pass += rectPass(xs[i].lo, xs[i].hi, ys[j].lo, ys[j].hi);
       c.total += uint64_t(xs[i].hi - xs[i].lo + 1) * (ys[j].hi - ys[j].lo + 1);
     }
   return c;
+}
+
+unsigned AlphaMask::passFail(int64_t x0, int64_t x1, int64_t y0, int64_t y1) const noexcept {
+  Interval xs[4], ys[4];
+  const int nx = wrapInterval(x0, x1, w_, sampler_.wrapS, xs);
+  const int ny = wrapInterval(y0, y1, h_, sampler_.wrapT, ys);
+  unsigned seen = 0;
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      seen |= rectPassFail(xs[i].lo, xs[i].hi, ys[j].lo, ys[j].hi);
+      if (seen == 3u) return 3u;
+    }
+  return seen;
 }
 
 double bakeMarginTexels(const double x[3], const double y[3]) noexcept {

@@ -38,15 +38,18 @@ TEST(AlphaMask, CountMatchesBruteForceForEveryWrap) {
         const AlphaMask::Count c = mask.count(x0, x1, y0, y1);
         EXPECT_EQ(c.pass > 0, anyPass) << x0 << ".." << x1 << " × " << y0 << ".." << y1;
         EXPECT_EQ(c.pass < c.total, anyFail) << x0 << ".." << x1 << " × " << y0 << ".." << y1;
+        EXPECT_EQ(mask.passFail(x0, x1, y0, y1), (anyPass ? 1u : 0u) | (anyFail ? 2u : 0u))
+            << x0 << ".." << x1 << " × " << y0 << ".." << y1;
       }
     }
 }
 
-// Exact pass counts of rectangles inside 8-bit and 16-bit textures (their masks are built through a pass table, the
-// summed-area rows four texels at a time) for widths around 4 and the 64-bit word size, against brute force.
+// Exact pass counts and passFail of rectangles inside 8-bit and 16-bit textures (8-bit pass bits by a threshold
+// compare 16 texels at a time, 16-bit through a pass table; counts from the word table and the end words) for widths
+// around the 64-bit word size and several words wide, against brute force.
 TEST(AlphaMask, CountsOfIntegerTexturesAreExact) {
   std::mt19937 rng(17);
-  for (uint32_t w : {1u, 3u, 4u, 5u, 8u, 63u, 64u, 65u, 130u})
+  for (uint32_t w : {1u, 3u, 4u, 5u, 8u, 63u, 64u, 65u, 130u, 300u})
     for (AlphaStorage st : {AlphaStorage::UInt8, AlphaStorage::UInt16}) {
       const uint32_t h = st == AlphaStorage::UInt16 ? 600 : 9;  // 16-bit: above 65,536 texels for the widest
       AlphaTexture tex;
@@ -72,8 +75,11 @@ TEST(AlphaMask, CountsOfIntegerTexturesAreExact) {
         for (int64_t y = y0; y <= y1; ++y)
           for (int64_t x = x0; x <= x1; ++x) pass += tex.at(uint32_t(x), uint32_t(y)) >= 0.37f;
         const AlphaMask::Count c = mask.count(x0, x1, y0, y1);
+        const uint64_t total = uint64_t(x1 - x0 + 1) * uint64_t(y1 - y0 + 1);
         EXPECT_EQ(c.pass, pass) << w << " " << x0 << ".." << x1 << " × " << y0 << ".." << y1;
-        EXPECT_EQ(c.total, uint64_t(x1 - x0 + 1) * uint64_t(y1 - y0 + 1));
+        EXPECT_EQ(c.total, total);
+        EXPECT_EQ(mask.passFail(x0, x1, y0, y1), (pass > 0 ? 1u : 0u) | (pass < total ? 2u : 0u))
+            << w << " " << x0 << ".." << x1 << " × " << y0 << ".." << y1;
       }
     }
 }

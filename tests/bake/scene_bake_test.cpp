@@ -440,9 +440,9 @@ TEST(AlphaTextureStorage, EveryStorageBakesTheSame) {
     const AlphaMask mask(t, kSampler, 0.4f);
     for (uint32_t y = 0; y < h; ++y)
       for (uint32_t x = 0; x < w; ++x) ASSERT_EQ(mask.texel(x, y), flt.at(x, y));
-    // The mask holds its summed-area table and pass bits only: an 8/16-bit texture's value table is shared, not
+    // The mask holds its word table and pass bits only: an 8/16-bit texture's value table is shared, not
     // copied (it was 256 KB per mask of a 16-bit texture).
-    EXPECT_EQ(mask.memoryBytes(), size_t(w + 1) * (h + 1) * 4 + (size_t(w / 64 + 1) * h + 1) * 8);
+    EXPECT_EQ(mask.memoryBytes(), (size_t(w / 64 + 2) * (h + 1)) * 4 + (size_t(w / 64 + 1) * h + 1) * 8);
   }
   EXPECT_EQ(outs[0], outs[2]);
   EXPECT_EQ(outs[1], outs[2]);

@@ -194,8 +194,8 @@ struct BakeInputs {
 };
 
 // The alpha test of one (texture, channel, scale, sampler, cutoff), prepared for fast conservative queries: the
-// texels' pass bits (one bit each) and a summed-area table of their 64-texel words; texel values are read from the caller's texture at its own precision
-// (through a table for 8/16-bit formats, never a float copy). Building it is O(W·H); bakeScene builds one per
+// texels' pass bits (one bit each) and a summed-area table of their 64-texel words; texel values are read from the
+// caller's texture at its own precision (through a table for 8/16-bit formats, never a float copy). Building it is O(W·H); bakeScene builds one per
 // distinct (texture, scale, sampler, cutoff) and shares it by every geometry and material. The texture must outlive
 // the mask.
 // Forced inlining for AlphaMask's per-texel queries (the classifier's hot loops; GCC otherwise keeps texel() out of

@@ -115,7 +115,7 @@ uint8_t fillByte(Format f, State s) {
 // nodes).
 constexpr int64_t kLeafCells = 1024, kNodeCells = 4;
 
-// rect() answers from the pass bits for at most this many rows of texels, from the summed-area table beyond.
+// rect() answers from the pass bits for at most this many rows of texels, through AlphaMask::passFail beyond.
 constexpr int64_t kBitRows = 16;
 
 // Texel coordinates at or beyond this magnitude make a triangle unknown (texelFloor clamps at 1e15).
@@ -187,7 +187,7 @@ struct TriangleClassifier {
 
   unsigned rect(int64_t i0, int64_t i1, int64_t j0, int64_t j1) const noexcept {
     if (bitsHold(i0, i1 + ext, j0, j1 + ext) && j1 - j0 < kBitRows) {
-      // The same texels as the summed-area query, from their pass bits row by row.
+      // The same texels as the passFail query, from their pass bits row by row.
       const uint64_t full = (uint64_t(2) << (i1 + ext - i0)) - 1;
       uint64_t any = 0, all = full;
       const uint64_t* word = mask.passWord(uint32_t(i0), uint32_t(j0));

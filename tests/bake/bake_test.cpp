@@ -130,7 +130,7 @@ int64_t expectSameMapsShifted(const AlphaMask& mask, const std::array<float, 2> 
 }
 
 // Inside the texture the classifier reads pass bits (rect, the cells' corners); across a repeat seam it reads the
-// summed-area table and wraps. A triangle and its copy one period to the left (same margin: same magnitude bracket,
+// word table (AlphaMask::passFail) and wraps. A triangle and its copy one period to the left (same margin: same magnitude bracket,
 // exact float UVs) must get identical maps.
 TEST(Classifier, PassBitsAndWrappedPathsAgree) {
   std::mt19937 rng(23);

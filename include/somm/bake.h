@@ -195,9 +195,9 @@ struct BakeInputs {
 
 // The alpha test of one (texture, channel, scale, sampler, cutoff), prepared for fast conservative queries: the
 // texels' pass bits (one bit each) and a summed-area table of their 64-texel words; texel values are read from the
-// caller's texture at its own precision (through a table for 8/16-bit formats, never a float copy). Building it is O(W·H); bakeScene builds one per
-// distinct (texture, scale, sampler, cutoff) and shares it by every geometry and material. The texture must outlive
-// the mask.
+// caller's texture at its own precision (through a table for 8/16-bit formats, never a float copy). Building it is
+// O(W·H); bakeScene builds one per distinct (texture, scale, sampler, cutoff) and shares it by every geometry and
+// material. The texture must outlive the mask.
 // Forced inlining for AlphaMask's per-texel queries (the classifier's hot loops; GCC otherwise keeps texel() out of
 // line).
 #if defined(__GNUC__) || defined(__clang__)
@@ -302,6 +302,7 @@ class AlphaMask {
   std::vector<uint64_t> bits_;  // h rows of words_ words: bit x % 64 of word x / 64 is texel x's alpha test
   size_t words_ = 0;  // w / 64 + 1 (a spare word, so passBits may read one word past the row's last texel)
   void build();
+  uint64_t wordsPass(uint32_t ka, uint32_t kb, uint32_t y0, uint32_t y1) const noexcept;
   uint64_t rectPass(uint32_t x0, uint32_t x1, uint32_t y0, uint32_t y1) const noexcept;
   unsigned rectPassFail(uint32_t x0, uint32_t x1, uint32_t y0, uint32_t y1) const noexcept;
 };

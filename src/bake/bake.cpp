@@ -200,8 +200,8 @@ struct TriangleClassifier {
       }
       return (any ? kPass : 0u) | (all != full ? kFail : 0u);
     }
-    const unsigned pf = mask.passFail(i0, i1 + ext, j0, j1 + ext);
-    return (pf & 1u ? kPass : 0u) | (pf & 2u ? kFail : 0u);
+    static_assert(kPass == 1 && kFail == 2, "passFail's bits are the classes");
+    return mask.passFail(i0, i1 + ext, j0, j1 + ext);
   }
 
   // The x-extent [xl, xr] of the triangle within the horizontal slab [ya, yb]; false when they do not meet.
@@ -1429,10 +1429,9 @@ void AlphaMask::build() {
   }
 #if defined(__SSE2__)
   if (isThreshold) {
-    // v >= t  ⟺  max(v, t) == v (unsigned bytes); t = 256 (nothing passes): every bit 0.
+    // v >= t  ⟺  max(v, t) == v (unsigned bytes); t = 256 (nothing passes): the bits stay 0.
     const __m128i t = _mm_set1_epi8(char(uint8_t(std::min<uint32_t>(threshold, 255))));
-    const uint64_t none = threshold == 256 ? 0 : ~uint64_t(0);
-    for (uint32_t y = 0; y < h_; ++y) {
+    for (uint32_t y = 0; threshold < 256 && y < h_; ++y) {
       uint64_t* bits = bits_.data() + size_t(y) * words_;
       const uint8_t* p = base_ + size_t(y) * pitch_;
       uint32_t x = 0;
@@ -1442,7 +1441,7 @@ void AlphaMask::build() {
           const __m128i v = _mm_loadu_si128(reinterpret_cast<const __m128i*>(p + x + 16 * q));
           word |= uint64_t(uint32_t(_mm_movemask_epi8(_mm_cmpeq_epi8(_mm_max_epu8(v, t), v)))) << (16 * q);
         }
-        bits[x >> 6] = word & none;
+        bits[x >> 6] = word;
       }
       uint64_t word = 0;
       for (; x < w_; ++x) word |= uint64_t(p[x] >= threshold ? 1u : 0u) << (x & 63u);
@@ -1566,10 +1565,17 @@ Status validateTexture(const TextureView& t) {
   return Ok{};
 }
 
+// Passing texels of rows [y0, y1] in the whole words [ka, kb) (ka < kb), from the word table in O(1).
+uint64_t AlphaMask::wordsPass(uint32_t ka, uint32_t kb, uint32_t y0, uint32_t y1) const noexcept {
+  const size_t stride = words_ + 1;
+  const uint32_t* a = wordSat_.get() + size_t(y0) * stride;
+  const uint32_t* b = wordSat_.get() + (size_t(y1) + 1) * stride;
+  return uint32_t(b[kb] - b[ka] - a[kb] + a[ka]);  // modular arithmetic; the true count fits
+}
+
 // Passing texels in [x0, x1] × [y0, y1] (inside the texture): whole words from the word table, the partial words
 // at either end row by row.
 uint64_t AlphaMask::rectPass(uint32_t x0, uint32_t x1, uint32_t y0, uint32_t y1) const noexcept {
-  const size_t stride = words_ + 1;
   const uint32_t k0 = x0 >> 6, k1 = x1 >> 6, s0 = x0 & 63u, s1 = x1 & 63u;
   const uint64_t lo = ~uint64_t(0) << s0, hi = ~uint64_t(0) >> (63u - s1);
   const uint64_t* row = bits_.data() + size_t(y0) * words_;
@@ -1578,10 +1584,8 @@ uint64_t AlphaMask::rectPass(uint32_t x0, uint32_t x1, uint32_t y0, uint32_t y1)
     for (uint32_t y = y0; y <= y1; ++y, row += words_) n += uint64_t(std::popcount(row[k0] & lo & hi));
     return n;
   }
-  // Whole words (k0, k1) exclusive; the end words' bits in the rectangle row by row.
-  const uint32_t* a = wordSat_.get() + size_t(y0) * stride;
-  const uint32_t* b = wordSat_.get() + (size_t(y1) + 1) * stride;
-  n = uint32_t(b[k1] - b[k0 + 1] - a[k1] + a[k0 + 1]);  // modular arithmetic; the true count fits
+  // Whole words (k0, k1) exclusive (none when k1 = k0 + 1); the end words' bits in the rectangle row by row.
+  if (k1 > k0 + 1) n = wordsPass(k0 + 1, k1, y0, y1);
   for (uint32_t y = y0; y <= y1; ++y, row += words_)
     n += uint64_t(std::popcount(row[k0] & lo)) + uint64_t(std::popcount(row[k1] & hi));
   return n;
@@ -1590,7 +1594,6 @@ uint64_t AlphaMask::rectPass(uint32_t x0, uint32_t x1, uint32_t y0, uint32_t y1)
 // Bit 0: [x0, x1] × [y0, y1] (inside the texture) holds a passing texel; bit 1: a failing one. The whole words from
 // the word table first (O(1)); the partial end words row by row only while a class is still unseen.
 unsigned AlphaMask::rectPassFail(uint32_t x0, uint32_t x1, uint32_t y0, uint32_t y1) const noexcept {
-  const size_t stride = words_ + 1;
   const uint32_t k0 = x0 >> 6, k1 = x1 >> 6, s0 = x0 & 63u, s1 = x1 & 63u;
   uint64_t lo = ~uint64_t(0) << s0, hi = ~uint64_t(0) >> (63u - s1);
   unsigned seen = 0;
@@ -1599,9 +1602,7 @@ unsigned AlphaMask::rectPassFail(uint32_t x0, uint32_t x1, uint32_t y0, uint32_t
     lo &= hi;
     hi = 0;
   } else if (k1 > k0 + 1) {
-    const uint32_t* a = wordSat_.get() + size_t(y0) * stride;
-    const uint32_t* b = wordSat_.get() + (size_t(y1) + 1) * stride;
-    const uint64_t pass = uint32_t(b[k1] - b[k0 + 1] - a[k1] + a[k0 + 1]);
+    const uint64_t pass = wordsPass(k0 + 1, k1, y0, y1);
     const uint64_t total = uint64_t(k1 - k0 - 1) * 64u * (uint64_t(y1) - y0 + 1);
     seen = (pass > 0 ? 1u : 0u) | (pass < total ? 2u : 0u);
     if (seen == 3u) return 3u;

@@ -159,6 +159,9 @@ struct TriangleClassifier {
   // Side of a square (cell units) holding a whole wrap period in both axes; infinity when a wrap clamps.
   double periodSide = std::numeric_limits<double>::infinity();
   int64_t tw = 0, th = 0;  // the mask's size
+  // The wrap period of each axis in texels (W for repeat, 2W for mirrored repeat), 0 when the axis clamps: texel i and
+  // texel i − k·period are the same texel (docs/baking.md "Samples whole periods away").
+  int64_t periodX = 0, periodY = 0;
   void spend(uint64_t units) const noexcept {
     budget = units < budget ? budget - units : 0;
     work += units;
@@ -178,6 +181,13 @@ struct TriangleClassifier {
         std::sqrt(ax * ax + ay * ay) + std::sqrt(bx * bx + by * by) + std::sqrt(cx * cx + cy * cy);
     if (!(per > 0)) return false;
     return area2 / per * scale * 1.4142135 >= periodSide * (1 + 1e-6) + 1e-6;
+  }
+
+  // The whole periods k·period (k = ⌊a / period⌋) that move index a into [0, period) (0 when the axis clamps).
+  static int64_t periodOffset(int64_t a, int64_t period) noexcept {
+    if (period == 0) return 0;
+    const int64_t q = a / period;
+    return (q - (q * period > a ? 1 : 0)) * period;
   }
 
   // True when the texels [x0, x1] × [y0, y1] lie inside the texture (no wrapping) and span at most 63 columns.
@@ -535,9 +545,25 @@ struct TriangleClassifier {
   // True when every point within 1e-6 of the closed triangle (cell space) reads texels inside the texture: x, y ≥ 0
   // (so truncation is the floor) and ⌊x⌋ + ext < W, ⌊y⌋ + ext < H (no wrapping). Points computed from the
   // triangle's vertices in double (midpoints, centroids) are within far less than 1e-6 of it.
-  bool samplesInside(const double X[3], const double Y[3]) const noexcept {
-    return min3(X) >= 1e-6 && min3(Y) >= 1e-6 && max3(X) + 1e-6 < double(tw - ext) &&
-           max3(Y) + 1e-6 < double(th - ext);
+  // Also true when the triangle moved by whole periods (ox, oy) is inside so: a sample point (x, y) computed from
+  // (X, Y) reads, at (x − ox, y − oy), the same texels with the same weights (docs/baking.md "Samples whole periods
+  // away"). The move is toward 0 from non-negative coordinates (0 ≤ ox ≤ x), so x − ox is exact and so is its
+  // fraction. (ox, oy) = (0, 0) when the triangle is inside as it is, or not inside.
+  SOMM_BAKE_INLINE bool samplesInside(const double X[3], const double Y[3], double& ox,
+                                      double& oy) const noexcept {
+    ox = oy = 0;
+    const double x0 = min3(X), y0 = min3(Y);
+    if (!(x0 >= 1e-6 && y0 >= 1e-6)) return false;
+    if (max3(X) + 1e-6 < double(tw - ext) && max3(Y) + 1e-6 < double(th - ext)) return true;
+    if ((periodX | periodY) == 0) return false;
+    const double sx = double(periodOffset(cellFloor(x0), periodX)),
+                 sy = double(periodOffset(cellFloor(y0), periodY));
+    if (!(x0 - sx >= 1e-6 && y0 - sy >= 1e-6 && max3(X) - sx + 1e-6 < double(tw - ext) &&
+          max3(Y) - sy + 1e-6 < double(th - ext)))
+      return false;
+    ox = sx;
+    oy = sy;
+    return true;
   }
 
   // passesAt for a point whose texels lie inside the texture (see samplesInside): the same texels and the same
@@ -551,17 +577,18 @@ struct TriangleClassifier {
     return alphaTestPasses(float(top * (1 - fy) + bot * fy), mask.cutoff());
   }
 
+  // (ox, oy): the whole periods samplesInside moved an inside triangle by (0 otherwise).
   template <bool kInside>
-  SOMM_BAKE_INLINE bool sampleAt(double x, double y) const noexcept {
+  SOMM_BAKE_INLINE bool sampleAt(double x, double y, double ox, double oy) const noexcept {
     if constexpr (kInside) {
-      return passesInside(x, y);
+      return passesInside(x - ox, y - oy);
     } else {
       return passesAt(x, y);
     }
   }
 
-  SOMM_BAKE_INLINE bool sampleWhere(bool inside, double x, double y) const noexcept {
-    return inside ? passesInside(x, y) : passesAt(x, y);
+  SOMM_BAKE_INLINE bool sampleWhere(bool inside, double x, double y, double ox, double oy) const noexcept {
+    return inside ? passesInside(x - ox, y - oy) : passesAt(x, y);
   }
 
   // The state an unknown micro-triangle gets: by majority of the alpha test at the centroids of its 4
@@ -571,18 +598,19 @@ struct TriangleClassifier {
   static constexpr double kCentroid[4][3] = {
       {4. / 6, 1. / 6, 1. / 6}, {1. / 6, 4. / 6, 1. / 6}, {1. / 6, 1. / 6, 4. / 6}, {1. / 3, 1. / 3, 1. / 3}};
   template <bool kInside = false>
-  int centroidPasses(const double X[3], const double Y[3]) const noexcept {
+  int centroidPasses(const double X[3], const double Y[3], double ox = 0, double oy = 0) const noexcept {
     int pass = 0;
     for (const auto& b : kCentroid)
-      pass +=
-          sampleAt<kInside>(b[0] * X[0] + b[1] * X[1] + b[2] * X[2], b[0] * Y[0] + b[1] * Y[1] + b[2] * Y[2]);
+      pass += sampleAt<kInside>(b[0] * X[0] + b[1] * X[1] + b[2] * X[2],
+                                b[0] * Y[0] + b[1] * Y[1] + b[2] * Y[2], ox, oy);
     return pass;
   }
 
   // The state of an unknown micro-triangle whose centroidPasses are `pass`.
   // `inside`: the micro-triangle lies inside the texture as samplesInside() tests (the tie-break point then reads
   // texels inside the texture: passesInside, the same bit as passesAt).
-  State unknownFrom(int pass, const double X[3], const double Y[3], bool inside = false) const noexcept {
+  State unknownFrom(int pass, const double X[3], const double Y[3], bool inside = false, double ox = 0,
+                    double oy = 0) const noexcept {
     if (format == Format::TwoState && unknownAs != UnknownAs::Majority)
       return unknownAs == UnknownAs::Opaque ? State::Opaque : State::Transparent;
     bool opaque;
@@ -591,7 +619,7 @@ struct TriangleClassifier {
     } else {
       // The middle child's centroid is the parent's centroid; break the tie with a point between it and
       // vertex 0.
-      opaque = sampleWhere(inside, (2 * X[0] + X[1] + X[2]) / 4, (2 * Y[0] + Y[1] + Y[2]) / 4);
+      opaque = sampleWhere(inside, (2 * X[0] + X[1] + X[2]) / 4, (2 * Y[0] + Y[1] + Y[2]) / 4, ox, oy);
     }
     if (format == Format::TwoState) return opaque ? State::Opaque : State::Transparent;
     return opaque ? State::UnknownOpaque : State::UnknownTransparent;
@@ -614,29 +642,31 @@ struct TriangleClassifier {
   static constexpr uint8_t kChildOf[6] = {0, 2, 3, 0, 0, 1}, kSlotOf[6] = {0, 1, 2, 1, 2, 1};
   // `vb`: bit k is the alpha test at the parent's vertex k (points 0..2), sampled by the parent's parent.
   template <bool kInside>
-  void leafSamples(const double cX[4][3], const double cY[4][3], unsigned& vpass,
-                   int pass[4]) const noexcept {
+  void leafSamples(const double cX[4][3], const double cY[4][3], unsigned& vpass, int pass[4], double ox = 0,
+                   double oy = 0) const noexcept {
     for (unsigned p = 3; p < 6; ++p)
-      vpass |= unsigned(sampleAt<kInside>(cX[kChildOf[p]][kSlotOf[p]], cY[kChildOf[p]][kSlotOf[p]])) << p;
-    for (uint32_t c = 0; c < 4; ++c) pass[c] = centroidPasses<kInside>(cX[c], cY[c]);
+      vpass |= unsigned(sampleAt<kInside>(cX[kChildOf[p]][kSlotOf[p]], cY[kChildOf[p]][kSlotOf[p]], ox, oy))
+               << p;
+    for (uint32_t c = 0; c < 4; ++c) pass[c] = centroidPasses<kInside>(cX[c], cY[c], ox, oy);
   }
 
 #if defined(__SSE2__)
   // leafSamples<true> for the linear filter, two samples at a time: the 3 edge midpoints and the 16 child centroids
   // (computed as in centroidPasses) in one lattice, each blended exactly as passesInside does (the same IEEE double
   // operations, packed; the same rounding to float and comparison), texels read per lane.
-  void linearLeafSamplesInside(const double cX[4][3], const double cY[4][3], unsigned& vpass,
-                               int pass[4]) const noexcept {
+  // (ox, oy): as in sampleAt, subtracted from each point once it is computed.
+  void linearLeafSamplesInside(const double cX[4][3], const double cY[4][3], unsigned& vpass, int pass[4],
+                               double ox, double oy) const noexcept {
     alignas(16) double xs[20], ys[20];
     for (unsigned p = 3; p < 6; ++p) {
-      xs[p - 3] = cX[kChildOf[p]][kSlotOf[p]];
-      ys[p - 3] = cY[kChildOf[p]][kSlotOf[p]];
+      xs[p - 3] = cX[kChildOf[p]][kSlotOf[p]] - ox;
+      ys[p - 3] = cY[kChildOf[p]][kSlotOf[p]] - oy;
     }
     for (uint32_t c = 0; c < 4; ++c)
       for (uint32_t q = 0; q < 4; ++q) {
         const double* b = kCentroid[q];
-        xs[3 + 4 * c + q] = b[0] * cX[c][0] + b[1] * cX[c][1] + b[2] * cX[c][2];
-        ys[3 + 4 * c + q] = b[0] * cY[c][0] + b[1] * cY[c][1] + b[2] * cY[c][2];
+        xs[3 + 4 * c + q] = (b[0] * cX[c][0] + b[1] * cX[c][1] + b[2] * cX[c][2]) - ox;
+        ys[3 + 4 * c + q] = (b[0] * cY[c][0] + b[1] * cY[c][1] + b[2] * cY[c][2]) - oy;
       }
     xs[19] = xs[18];
     ys[19] = ys[18];
@@ -688,16 +718,17 @@ struct TriangleClassifier {
     unsigned vpass = vb & 7u;
     int pass[4];
     const double pX[3] = {cX[0][0], cX[2][1], cX[3][2]}, pY[3] = {cY[0][0], cY[2][1], cY[3][2]};
-    const bool inside = samplesInside(pX, pY);
+    double ox, oy;
+    const bool inside = samplesInside(pX, pY, ox, oy);
     if (!inside) {
       leafSamples<false>(cX, cY, vpass, pass);
     } else if (shift == 0) {
-      leafSamples<true>(cX, cY, vpass, pass);
+      leafSamples<true>(cX, cY, vpass, pass, ox, oy);
     } else {
 #if defined(__SSE2__)
-      linearLeafSamplesInside(cX, cY, vpass, pass);
+      linearLeafSamplesInside(cX, cY, vpass, pass, ox, oy);
 #else
-      leafSamples<true>(cX, cY, vpass, pass);
+      leafSamples<true>(cX, cY, vpass, pass, ox, oy);
 #endif
     }
     State st[4];
@@ -714,7 +745,7 @@ struct TriangleClassifier {
         }
       }
       ++unknown;
-      st[c] = unknownFrom(pass[c], cX[c], cY[c], inside);
+      st[c] = unknownFrom(pass[c], cX[c], cY[c], inside, ox, oy);
     }
     // The 4 leaves (indices 4·prefix .. 4·prefix + 3) fill one byte (4-state) or one nibble (2-state): stored at once.
     if (format == Format::FourState) {
@@ -756,15 +787,16 @@ struct TriangleClassifier {
     // Witnesses as in leaves(): a child whose vertices (the points a, b, c, ab, ac, bc of this node) and centroid
     // see both classes has a mixed region, which region() would report too; it is subdivided without the test.
     bool v[6];
-    const bool inside = samplesInside(X, Y);
+    double ox, oy;
+    const bool inside = samplesInside(X, Y, ox, oy);
     for (int p = 0; p < 3; ++p) v[p] = (vb >> p) & 1u;
     for (int p = 3; p < 6; ++p)
-      v[p] = sampleWhere(inside, cX[kChildOf[p]][kSlotOf[p]], cY[kChildOf[p]][kSlotOf[p]]);
+      v[p] = sampleWhere(inside, cX[kChildOf[p]][kSlotOf[p]], cY[kChildOf[p]][kSlotOf[p]], ox, oy);
     for (uint32_t c = 0; c < 4; ++c) {
       const bool v0 = v[kLeafVertex[c][0]];
       const bool mixed = v[kLeafVertex[c][1]] != v0 || v[kLeafVertex[c][2]] != v0 ||
                          sampleWhere(inside, (cX[c][0] + cX[c][1] + cX[c][2]) / 3,
-                                     (cY[c][0] + cY[c][1] + cY[c][2]) / 3) != v0;
+                                     (cY[c][0] + cY[c][1] + cY[c][2]) / 3, ox, oy) != v0;
       const unsigned cvb = unsigned(v[kLeafVertex[c][0]]) | unsigned(v[kLeafVertex[c][1]]) << 1 |
                            unsigned(v[kLeafVertex[c][2]]) << 2;
       node(cX[c], cY[c], depth + 1, prefix * 4 + c, mixed ? kMixed : region(cX[c], cY[c], kNodeCells), cvb);
@@ -825,6 +857,11 @@ TriangleClassifier makeClassifier(const AlphaMask& mask, double margin, uint32_t
   c.tw = mask.width();
   c.th = mask.height();
   const Sampler& smp = mask.sampler();
+  auto period = [](uint32_t size, Wrap w) -> int64_t {
+    return w == Wrap::ClampToEdge ? 0 : int64_t(size) * (w == Wrap::MirroredRepeat ? 2 : 1);
+  };
+  c.periodX = period(mask.width(), smp.wrapS);
+  c.periodY = period(mask.height(), smp.wrapT);
   if (smp.wrapS != Wrap::ClampToEdge && smp.wrapT != Wrap::ClampToEdge)
     c.periodSide = std::max(double(mask.width()) * (smp.wrapS == Wrap::MirroredRepeat ? 2 : 1),
                             double(mask.height()) * (smp.wrapT == Wrap::MirroredRepeat ? 2 : 1));

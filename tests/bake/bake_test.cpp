@@ -208,6 +208,60 @@ TEST(Classifier, InTextureSamplerAgreesWithWrappedSampler) {
   }
 }
 
+// Nodes and leaves whole periods to the right of / below the texture (non-negative coordinates, as repeating UVs of
+// real foliage and ground quads are) are sampled in the texture, moved back by whole periods (exact, so the same
+// texels, weights and rounding). Oracle: the same texel coordinates in a texture holding four periods of the first
+// (texel (x, y) = the first's texel at the wrapped (x, y); UVs / 4), where they lie inside and nothing is moved:
+// identical maps, for repeat and mirrored repeat, both filters.
+TEST(Classifier, PeriodShiftedSamplerAgreesWithTiledTexture) {
+  std::mt19937 rng(59);
+  std::uniform_real_distribution<double> d(0.0, 1.0);
+  const uint32_t size = 64, big = 4 * size;
+  std::vector<uint8_t> texels(size_t(size) * size);
+  for (uint32_t y = 0; y < size; ++y)
+    for (uint32_t x = 0; x < size; ++x) {
+      const double v = std::sin(x * 0.29 + 0.2) * std::cos(y * 0.33) * 3.0 + 0.6 * d(rng) - 0.3;
+      texels[size_t(y) * size + x] = uint8_t(std::lround(std::clamp(0.5 + v, 0.0, 1.0) * 255));
+    }
+  const AlphaTexture tex = AlphaTexture::fromUInt8(size, size, texels);
+  for (Wrap w : {Wrap::Repeat, Wrap::MirroredRepeat}) {
+    std::vector<uint8_t> tiled(size_t(big) * big);
+    for (uint32_t y = 0; y < big; ++y)
+      for (uint32_t x = 0; x < big; ++x)
+        tiled[size_t(y) * big + x] = texels[size_t(wrapTexel(y, size, w)) * size + wrapTexel(x, size, w)];
+    const AlphaTexture bigTex = AlphaTexture::fromUInt8(big, big, tiled);
+    for (Filter f : {Filter::Linear, Filter::Nearest}) {
+      const AlphaMask mask(tex, Sampler{w, w, f}, 0.5f);
+      const AlphaMask bigMask(bigTex, Sampler{Wrap::Repeat, Wrap::Repeat, f}, 0.5f);
+      const float period = w == Wrap::Repeat ? 1.0f : 2.0f;  // in UV units of the first texture
+      int unknown = 0;
+      for (int t = 0; t < 1500; ++t) {
+        const double scale = 0.3 + 5.7 * d(rng) * d(rng);  // texels
+        const double cx = 0.2 + (size - 0.4) * d(rng), cy = 0.2 + (size - 0.4) * d(rng);
+        std::array<float, 2> right[3], quarter[3];
+        for (int k = 0; k < 3; ++k) {
+          const double x = std::clamp(cx + scale * (d(rng) - 0.5), 0.05, size - 0.05);
+          const double y = std::clamp(cy + scale * (d(rng) - 0.5), 0.05, size - 0.05);
+          const float u = float(std::round(x / size * 65536) / 65536),
+                      v = float(std::round(y / size * 65536) / 65536);
+          right[k] = {u + period, v + period * float(t % 2)};  // exact: multiples of 2^-16 below 8
+          quarter[k] = {right[k][0] / 4, right[k][1] / 4};     // exact: the same texel coordinates in bigTex
+        }
+        SCOPED_TRACE(::testing::Message() << "wrap " << int(w) << " filter " << int(f) << " triangle " << t);
+        const uint32_t level = 3 + uint32_t(t % 5);
+        const TriangleBake a = bakeTriangle(mask, right[0], right[1], right[2], level, Format::FourState);
+        const TriangleBake b =
+            bakeTriangle(bigMask, quarter[0], quarter[1], quarter[2], level, Format::FourState);
+        ASSERT_EQ(a.unknownCount, b.unknownCount);
+        ASSERT_TRUE(a.map.bytes().size() == b.map.bytes().size() &&
+                    std::equal(a.map.bytes().begin(), a.map.bytes().end(), b.map.bytes().begin()));
+        unknown += a.unknownCount > 0;
+      }
+      EXPECT_GT(unknown, 150);  // maps with unknown leaves: classified below the root, where the samples are
+    }
+  }
+}
+
 TEST(Tightness, HalfPlaneNearestLeavesOnlyStraddlersUnknown) {
   const AlphaTexture tex = makeTexture(64, 64, [](uint32_t x, uint32_t) { return x < 32 ? 1.0 : 0.0; });
   const AlphaMask mask(tex, Sampler{Wrap::ClampToEdge, Wrap::ClampToEdge, Filter::Nearest}, 0.5f);

@@ -22,6 +22,15 @@ namespace somm {
 Result<std::vector<uint8_t>> readRegularFile(const std::string& path, uint64_t maxBytes, const char* kind,
                                              const char* limitName);
 
+// The checks of readRegularFile without the read: the open file descriptor (blocking, close-on-exec; the caller
+// closes it) and the size fstat reported — read at most that many bytes (a growing file is cut there).
+struct OpenedFile {
+  int fd = -1;
+  uint64_t size = 0;
+};
+Result<OpenedFile> openRegularFile(const std::string& path, uint64_t maxBytes, const char* kind,
+                                   const char* limitName);
+
 // Writes bytes to path atomically (see above). Refuses an output that exists and is not a regular file (a FIFO,
 // a device, a directory); a symlink at path is replaced, its target never written. On failure nothing is left
 // behind and an existing path is untouched.

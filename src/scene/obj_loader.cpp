@@ -9,9 +9,11 @@
 // UVs are kept as they are.
 #include <tbb/parallel_for.h>
 #include <tiny_obj_loader.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -29,40 +31,112 @@ namespace somm::detail {
 
 namespace {
 
-// Face, line and point indices must fit tinyobjloader's int (it overflows silently): the first token of a line
-// that is f/l/p, then every run of digits of at most 10 digits and ≤ 2^31 − 1. Returns the offending line or 0.
-size_t badIndexLine(const std::string& text, std::string& token) {
-  size_t line = 1;
-  for (size_t i = 0; i < text.size();) {
-    size_t e = text.find('\n', i);
-    if (e == std::string::npos) e = text.size();
-    size_t k = i;
-    while (k < e && (text[k] == ' ' || text[k] == '\t')) ++k;
-    if (k + 1 < e && (text[k] == 'f' || text[k] == 'l' || text[k] == 'p') &&
-        (text[k + 1] == ' ' || text[k + 1] == '\t')) {
-      for (size_t j = k + 1; j < e;) {
-        if (text[j] < '0' || text[j] > '9') {
-          ++j;
-          continue;
-        }
-        size_t d = j;
-        uint64_t v = 0;
-        while (d < e && text[d] >= '0' && text[d] <= '9') {
-          if (v <= 0x7FFFFFFFu) v = v * 10 + uint64_t(text[d] - '0');
-          ++d;
-        }
-        if (v > 0x7FFFFFFFu) {
-          token = text.substr(j, std::min<size_t>(d - j, 40));
-          return line;
-        }
-        j = d;
+// Face, line and point indices must fit tinyobjloader's int (it overflows silently): in a line whose first token
+// (after spaces and tabs) is f, l or p followed by a space or tab, every run of digits must be ≤ 2^31 − 1. The check
+// runs on the bytes as they stream to the parser (IndexScan::feed per chunk), so what is parsed is what was checked.
+class IndexScan {
+ public:
+  // Scans bytes [p, p + n); false at the first out-of-range index (line() and token() tell which).
+  bool feed(const char* p, size_t n) {
+    for (size_t i = 0; i < n; ++i) {
+      const char c = p[i];
+      switch (phase_) {
+        case kLead:
+          if (c == '\n') {
+            ++line_;
+          } else if (c != ' ' && c != '\t') {
+            phase_ = (c == 'f' || c == 'l' || c == 'p') ? kCandidate : kSkip;
+          }
+          break;
+        case kCandidate:
+          if (c == '\n') {
+            ++line_;
+            phase_ = kLead;
+          } else {
+            phase_ = (c == ' ' || c == '\t') ? kFace : kSkip;
+          }
+          break;
+        case kFace:
+          if (c >= '0' && c <= '9') {
+            if (!inNumber_) inNumber_ = true, value_ = 0, token_.clear();
+            if (value_ <= 0x7FFFFFFFu) value_ = value_ * 10 + uint64_t(c - '0');
+            if (token_.size() < 40) token_ += c;
+          } else {
+            if (!finishNumber()) return false;
+            if (c == '\n') ++line_, phase_ = kLead;
+          }
+          break;
+        case kSkip:
+          if (c == '\n') ++line_, phase_ = kLead;
+          break;
       }
     }
-    ++line;
-    i = e + 1;
+    return true;
   }
-  return 0;
-}
+  // The end of the file: false when it ends inside an out-of-range index.
+  bool finish() { return phase_ != kFace || finishNumber(); }
+  size_t line() const { return line_; }
+  const std::string& token() const { return token_; }
+
+ private:
+  enum Phase { kLead, kCandidate, kFace, kSkip };
+  bool finishNumber() {
+    if (!inNumber_) return true;
+    inNumber_ = false;
+    return value_ <= 0x7FFFFFFFu;
+  }
+  Phase phase_ = kLead;
+  size_t line_ = 1;
+  bool inNumber_ = false;
+  uint64_t value_ = 0;
+  std::string token_;
+};
+
+// The OBJ file as a stream for the parser, read in 64 KiB chunks from the open file (at most `size` bytes: a
+// growing file is cut there) and checked by IndexScan on the way: the file's text is never held whole. Ends the
+// stream at a read error or an out-of-range index (failed() / scan() tell).
+class ObjFileBuf : public std::streambuf {
+ public:
+  ObjFileBuf(int fd, uint64_t size) : fd_(fd), left_(size) {}
+  ~ObjFileBuf() override { ::close(fd_); }
+  ObjFileBuf(const ObjFileBuf&) = delete;
+  ObjFileBuf& operator=(const ObjFileBuf&) = delete;
+  bool readFailed() const { return readFailed_; }
+  bool badIndex() const { return badIndex_; }
+  const IndexScan& scan() const { return scan_; }
+
+ protected:
+  int_type underflow() override {
+    if (gptr() < egptr()) return traits_type::to_int_type(*gptr());
+    if (readFailed_ || badIndex_) return traits_type::eof();
+    ssize_t r = 0;
+    if (left_ > 0) {
+      do {
+        r = ::read(fd_, buf_, size_t(std::min<uint64_t>(left_, sizeof buf_)));
+      } while (r < 0 && errno == EINTR);
+    }
+    if (r < 0) readFailed_ = true;
+    if (r <= 0) {  // the end (or the file shrank): the last line may hold an index
+      if (!readFailed_ && !scan_.finish()) badIndex_ = true;
+      left_ = 0;
+      return traits_type::eof();
+    }
+    left_ -= uint64_t(r);
+    if (!scan_.feed(buf_, size_t(r))) {
+      badIndex_ = true;
+      return traits_type::eof();
+    }
+    setg(buf_, buf_, buf_ + r);
+    return traits_type::to_int_type(buf_[0]);
+  }
+
+ private:
+  int fd_;
+  uint64_t left_;
+  bool readFailed_ = false, badIndex_ = false;
+  IndexScan scan_;
+  char buf_[1 << 16];
+};
 
 // Reads mtllib files as regular files only, with the mtl size cap; a failure other than "missing" is kept and
 // ends the load (tinyobjloader would only warn).
@@ -327,15 +401,9 @@ Status ObjLoader::material(const tinyobj::material_t& tm, Material& m) {
 
 Result<Scene> ObjLoader::run() {
   dir_ = std::filesystem::path(path_).parent_path();
-  auto bytes = readRegularFile(path_, opts_.limits.sceneFileBytes, "OBJ file", "file-bytes.scene");
-  if (!bytes) return bytes.error();
-  std::string text(bytes->begin(), bytes->end());
-  bytes->clear();
-  bytes->shrink_to_fit();
-  std::string badToken;
-  if (const size_t line = badIndexLine(text, badToken))
-    return fail(ErrorCode::CorruptFile, "line " + std::to_string(line) + ": index " + badToken +
-                                            " is out of range (at most 2^31 - 1)");
+  auto opened = openRegularFile(path_, opts_.limits.sceneFileBytes, "OBJ file", "file-bytes.scene");
+  if (!opened) return opened.error();
+  auto file = std::make_unique<ObjFileBuf>(opened->fd, opened->size);
   tinyobj::attrib_t attrib;
   std::vector<tinyobj::shape_t> shapes;
   std::vector<tinyobj::material_t> mats;
@@ -343,11 +411,16 @@ Result<Scene> ObjLoader::run() {
   MtlReader mtl(dir_, opts_.limits.mtlFileBytes);
   bool ok = false;
   try {
-    std::istringstream in(std::move(text));
+    std::istream in(file.get());
     ok = tinyobj::LoadObj(&attrib, &shapes, &mats, &warn, &err, &in, &mtl, false, false);
   } catch (const std::exception& e) {
     return fail(ErrorCode::CorruptFile, std::string("parser exception: ") + e.what());
   }
+  if (file->readFailed()) return fail(ErrorCode::IoError, "read failed");
+  if (file->badIndex())
+    return fail(ErrorCode::CorruptFile, "line " + std::to_string(file->scan().line()) + ": index " +
+                                            file->scan().token() + " is out of range (at most 2^31 - 1)");
+  file.reset();
   if (!mtl.error.empty()) return fail(ErrorCode::IoError, mtl.error);
   if (!ok) {
     std::string msg = oneLine(err);
@@ -357,15 +430,9 @@ Result<Scene> ObjLoader::run() {
   scene_.sourcePath = path_;
   scene_.inputFiles.push_back(path_);
   scene_.inputFiles.insert(scene_.inputFiles.end(), mtl.read.begin(), mtl.read.end());
-  prefetchImages(mats);
-  for (const auto& tm : mats) {
-    Material m;
-    Status st = material(tm, m);
-    if (!st.ok()) return st.error();
-    scene_.materials.push_back(std::move(m));
-  }
-  images_.clear();
-  decoded_.clear();
+  // Geometry first, then the parser's arrays are freed, then the images are decoded: the peak holds the parsed
+  // file and the geometry, or the geometry and the textures, never all three. Material indices are the file's
+  // (the default material, when a face has none, comes after them); the materials are filled in below.
   int defaultMaterial = -1;
   const size_t nv = attrib.vertices.size() / 3, nt = attrib.texcoords.size() / 2;
 
@@ -394,17 +461,12 @@ Result<Scene> ObjLoader::run() {
       if (it == geometryOf.end()) {
         Geometry g;
         if (mat < 0) {
-          if (defaultMaterial < 0) {
-            defaultMaterial = int(scene_.materials.size());
-            Material d;
-            d.name = "default";
-            scene_.materials.push_back(d);
-          }
+          if (defaultMaterial < 0) defaultMaterial = int(mats.size());
           g.material = uint32_t(defaultMaterial);
         } else {
           g.material = uint32_t(mat);
         }
-        g.name = shapeName + "/" + scene_.materials[g.material].name;
+        g.name = shapeName + "/" + (mat < 0 ? std::string("default") : mats[size_t(mat)].name);
         it = geometryOf.emplace(key, uint32_t(scene_.geometries.size())).first;
         scene_.geometries.push_back(std::move(g));
         builders.emplace_back();
@@ -450,6 +512,28 @@ Result<Scene> ObjLoader::run() {
       }
       offset += n;
     }
+  }
+  attrib = tinyobj::attrib_t{};
+  std::vector<tinyobj::shape_t>().swap(shapes);
+  std::vector<Builder>().swap(builders);
+  for (Geometry& g : scene_.geometries) {
+    g.positions.shrink_to_fit();
+    g.uvs.shrink_to_fit();
+    g.indices.shrink_to_fit();
+  }
+  prefetchImages(mats);
+  for (const auto& tm : mats) {
+    Material m;
+    Status st = material(tm, m);
+    if (!st.ok()) return st.error();
+    scene_.materials.push_back(std::move(m));
+  }
+  images_.clear();
+  decoded_.clear();
+  if (defaultMaterial >= 0) {
+    Material d;
+    d.name = "default";
+    scene_.materials.push_back(d);
   }
   if (degenerate)
     scene_.warnings.push_back(std::to_string(degenerate) + " face(s) with fewer than 3 vertices skipped");

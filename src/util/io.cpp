@@ -58,8 +58,8 @@ void fsyncDirectory(const std::string& dir) {
 
 }  // namespace
 
-Result<std::vector<uint8_t>> readRegularFile(const std::string& path, uint64_t maxBytes, const char* kind,
-                                             const char* limitName) {
+Result<OpenedFile> openRegularFile(const std::string& path, uint64_t maxBytes, const char* kind,
+                                   const char* limitName) {
   // O_NONBLOCK: opening a FIFO without a writer would block forever; it is refused below anyway.
   const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC);
   if (fd < 0) return makeError(ErrorCode::IoError, sysError(path, "cannot open"));
@@ -81,13 +81,21 @@ Result<std::vector<uint8_t>> readRegularFile(const std::string& path, uint64_t m
                                                    limitHint(limitName, maxBytes));
   }
   (void)::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) & ~O_NONBLOCK);
+  return OpenedFile{fd, uint64_t(st.st_size)};
+}
+
+Result<std::vector<uint8_t>> readRegularFile(const std::string& path, uint64_t maxBytes, const char* kind,
+                                             const char* limitName) {
+  auto opened = openRegularFile(path, maxBytes, kind, limitName);
+  if (!opened) return opened.error();
+  const int fd = opened->fd;
   std::vector<uint8_t> bytes;
   try {
-    bytes.resize(size_t(st.st_size));
+    bytes.resize(size_t(opened->size));
   } catch (const std::bad_alloc&) {
     ::close(fd);
     return makeError(ErrorCode::LimitExceeded,
-                     escapeName(path) + ": out of memory reading " + humanBytes(uint64_t(st.st_size)));
+                     escapeName(path) + ": out of memory reading " + humanBytes(opened->size));
   }
   size_t done = 0;
   while (done < bytes.size()) {  // never more than the size stat reported: a growing file is cut there

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <stb_image.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "scene_test_util.h"
@@ -374,6 +375,51 @@ TEST(Obj, MissingTextureNamesMaterialAndPath) {
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.error().message.find("junk.png"), std::string::npos);
   EXPECT_NE(r.error().message.find("decode"), std::string::npos);
+}
+
+// The file streams to the parser in 64 KiB chunks and its face/line/point indices are checked on the way: an index
+// above 2^31 - 1 is found wherever it lies — split across two chunks, at the very end without a newline, in a
+// line that starts with spaces or tabs — and named with its line; large indices elsewhere (a vertex coordinate, a
+// comment, an "fo" line) are not indices.
+TEST(Obj, IndexOverflowFoundAcrossChunks) {
+  TempDir dir;
+  std::string head = "v 0 0 0\nv 1 0 0\nv 0 1 0\n# 99999999999\nv 99999999999 0 0\nfo 99999999999\n";
+  while (head.size() < 65536 - 100) head += "# padding padding padding padding\n";
+  const auto lineCount = [](const std::string& t) { return size_t(std::count(t.begin(), t.end(), '\n')); };
+  for (size_t split : {0u, 3u, 6u, 10u}) {
+    // The token starts `split` bytes before the first chunk ends (0: at the start of the second chunk).
+    const std::string prefix = "\t f 1 2 ";
+    std::string text = head;
+    const size_t pad = 65536 - split - prefix.size() - text.size();
+    text.push_back('#');
+    text.append(pad - 2, ' ');
+    text.push_back('\n');
+    const size_t line = lineCount(text) + 1;
+    ASSERT_EQ(text.size() + prefix.size(), 65536 - split);
+    text += prefix + "21474836480 3\nf 1 2 3\n";
+    SCOPED_TRACE(split);
+    writeFile(dir.file("big.obj"), text);
+    auto r = somm::loadScene(dir.file("big.obj"));
+    ASSERT_FALSE(r.ok());
+    EXPECT_EQ(r.error().message, dir.file("big.obj") + ": line " + std::to_string(line) +
+                                     ": index 21474836480 is out of range (at most 2^31 - 1)");
+  }
+  writeFile(dir.file("end.obj"), head + "p 1 2147483648");  // the last line, no newline
+  auto r = somm::loadScene(dir.file("end.obj"));
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().message, dir.file("end.obj") + ": line " + std::to_string(lineCount(head) + 1) +
+                                   ": index 2147483648 is out of range (at most 2^31 - 1)");
+  writeFile(dir.file("ok.obj"), head + "f 1 2 2147483647\n");  // in range: the face check rejects it instead
+  auto ok = somm::loadScene(dir.file("ok.obj"));
+  ASSERT_FALSE(ok.ok());
+  EXPECT_NE(ok.error().message.find("refers to vertex 2147483647 but the file has 4 vertices"),
+            std::string::npos)
+      << ok.error().message;
+  writeFile(dir.file("fine.obj"), head + "f 1 2 3");
+  auto fine = somm::loadScene(dir.file("fine.obj"));
+  ASSERT_TRUE(fine.ok()) << fine.error().message;
+  ASSERT_EQ(fine->geometries.size(), 1u);
+  EXPECT_EQ(fine->geometries[0].indices.size(), 3u);
 }
 
 TEST(Obj, MalformedFilesGiveErrors) {

@@ -162,6 +162,19 @@ TEST(Classifier, PassBitsAndWrappedPathsAgree) {
     }
 }
 
+// A size × size 8-bit texture of leaf-like blobs with soft one-texel rims and binary interiors:
+// sin(fx·x + phase)·cos(fy·y)·3 plus noise, around the cutoff 0.5.
+std::vector<uint8_t> leafBlobTexels(uint32_t size, double fx, double phase, double fy, std::mt19937& rng) {
+  std::uniform_real_distribution<double> d(0.0, 1.0);
+  std::vector<uint8_t> texels(size_t(size) * size);
+  for (uint32_t y = 0; y < size; ++y)
+    for (uint32_t x = 0; x < size; ++x) {
+      const double v = std::sin(x * fx + phase) * std::cos(y * fy) * 3.0 + 0.6 * d(rng) - 0.3;
+      texels[size_t(y) * size + x] = uint8_t(std::lround(std::clamp(0.5 + v, 0.0, 1.0) * 255));
+    }
+  return texels;
+}
+
 // The in-texture sampler (a node whose samples all read texels inside the texture: no wrapping, truncation as the
 // floor) against the general one: small triangles (0.3–6 texels, as leaves of real foliage at levels 3–7) anywhere
 // in an 8-bit leaf-like texture, including within a texel of its border, and their copies one period to the left and
@@ -171,13 +184,7 @@ TEST(Classifier, InTextureSamplerAgreesWithWrappedSampler) {
   std::mt19937 rng(41);
   std::uniform_real_distribution<double> d(0.0, 1.0);
   const uint32_t size = 64;
-  std::vector<uint8_t> texels(size_t(size) * size);
-  for (uint32_t y = 0; y < size; ++y)
-    for (uint32_t x = 0; x < size; ++x) {
-      // Leaf-like blobs with soft one-texel rims and binary interiors.
-      const double v = std::sin(x * 0.31 + 0.4) * std::cos(y * 0.27) * 3.0 + 0.6 * d(rng) - 0.3;
-      texels[size_t(y) * size + x] = uint8_t(std::lround(std::clamp(0.5 + v, 0.0, 1.0) * 255));
-    }
+  const std::vector<uint8_t> texels = leafBlobTexels(size, 0.31, 0.4, 0.27, rng);
   const AlphaTexture tex = AlphaTexture::fromUInt8(size, size, texels);
   for (Filter f : {Filter::Linear, Filter::Nearest}) {
     const AlphaMask mask(tex, Sampler{Wrap::Repeat, Wrap::Repeat, f}, 0.5f);
@@ -217,12 +224,7 @@ TEST(Classifier, PeriodShiftedSamplerAgreesWithTiledTexture) {
   std::mt19937 rng(59);
   std::uniform_real_distribution<double> d(0.0, 1.0);
   const uint32_t size = 64, big = 4 * size;
-  std::vector<uint8_t> texels(size_t(size) * size);
-  for (uint32_t y = 0; y < size; ++y)
-    for (uint32_t x = 0; x < size; ++x) {
-      const double v = std::sin(x * 0.29 + 0.2) * std::cos(y * 0.33) * 3.0 + 0.6 * d(rng) - 0.3;
-      texels[size_t(y) * size + x] = uint8_t(std::lround(std::clamp(0.5 + v, 0.0, 1.0) * 255));
-    }
+  const std::vector<uint8_t> texels = leafBlobTexels(size, 0.29, 0.2, 0.33, rng);
   const AlphaTexture tex = AlphaTexture::fromUInt8(size, size, texels);
   for (Wrap w : {Wrap::Repeat, Wrap::MirroredRepeat}) {
     std::vector<uint8_t> tiled(size_t(big) * big);

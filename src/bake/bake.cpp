@@ -862,9 +862,7 @@ TriangleClassifier makeClassifier(const AlphaMask& mask, double margin, uint32_t
   };
   c.periodX = period(mask.width(), smp.wrapS);
   c.periodY = period(mask.height(), smp.wrapT);
-  if (smp.wrapS != Wrap::ClampToEdge && smp.wrapT != Wrap::ClampToEdge)
-    c.periodSide = std::max(double(mask.width()) * (smp.wrapS == Wrap::MirroredRepeat ? 2 : 1),
-                            double(mask.height()) * (smp.wrapT == Wrap::MirroredRepeat ? 2 : 1));
+  if (c.periodX != 0 && c.periodY != 0) c.periodSide = double(std::max(c.periodX, c.periodY));
   return c;
 }
 

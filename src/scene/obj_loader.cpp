@@ -94,7 +94,7 @@ class IndexScan {
 
 // The OBJ file as a stream for the parser, read in 64 KiB chunks from the open file (at most `size` bytes: a
 // growing file is cut there) and checked by IndexScan on the way: the file's text is never held whole. Ends the
-// stream at a read error or an out-of-range index (failed() / scan() tell).
+// stream at a read error or an out-of-range index (readFailed() / badIndex() and scan() tell).
 class ObjFileBuf : public std::streambuf {
  public:
   ObjFileBuf(int fd, uint64_t size) : fd_(fd), left_(size) {}

@@ -80,6 +80,20 @@ TEST(TraceCli, BenchTableAndJson) {
   EXPECT_NE(t.out.find("omm4-flat"), std::string::npos);
   EXPECT_NE(t.out.find("vs texture"), std::string::npos);
   EXPECT_EQ(t.out.find("bitmask"), std::string::npos);
+  // texture listed after other methods still runs first: it is the reference image and the ratios' denominator.
+  const auto late =
+      runSomm("bench " + kOak + kSmall + " --repeat 1 --json --methods omm4-flat,texture,omm4-sdag");
+  ASSERT_EQ(late.exitCode, 0) << late.err;
+  const auto lj = nlohmann::json::parse(late.out);
+  ASSERT_EQ(lj["methods"].size(), 3u);
+  EXPECT_EQ(lj["methods"][0]["method"], "texture");
+  for (const auto& m : lj["methods"]) {
+    EXPECT_EQ(m["pct_pixels_differing"].get<double>(), 0.0) << m["method"];
+  }
+  EXPECT_DOUBLE_EQ(lj["methods"][0]["ratio_to_texture"].get<double>(), 1.0);
+  const auto twice = runSomm("bench " + kOak + kSmall + " --repeat 1 --methods omm4-flat,omm4-flat");
+  EXPECT_EQ(twice.exitCode, 2);
+  EXPECT_NE(twice.err.find("twice"), std::string::npos) << twice.err;
 }
 
 // An exactness check that hits no alpha-tested geometry tests nothing: bench fails unless --allow-empty.

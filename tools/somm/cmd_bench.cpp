@@ -52,8 +52,16 @@ int run(const Options& o) {
     std::string t;
     while (std::getline(ss, t, ','))
       if (!t.empty()) names.push_back(t);
-    if (std::find(names.begin(), names.end(), "texture") == names.end())
-      names.insert(names.begin(), "texture");
+    for (size_t i = 0; i < names.size(); ++i)
+      if (std::find(names.begin(), names.begin() + std::ptrdiff_t(i), names[i]) !=
+          names.begin() + std::ptrdiff_t(i)) {
+        printError("bench", "--methods lists '" + names[i] + "' twice");
+        return kExitUsage;
+      }
+    // The texture test runs first in every repeat, wherever it was listed: it is the reference image every row is
+    // compared with and the run every ratio divides by.
+    names.erase(std::remove(names.begin(), names.end(), "texture"), names.end());
+    names.insert(names.begin(), "texture");
   }
   std::vector<Row> rows;
   bool needMicromaps = false;

@@ -154,10 +154,13 @@ inline constexpr auto kBytePopcount = [] {
 // Forced inlining for the small steps of the DAG walks (the compiler otherwise keeps some out of line).
 #if defined(__GNUC__) || defined(__clang__)
 #define SOMM_ENCODE_INLINE __attribute__((always_inline)) inline
+#define SOMM_ENCODE_COLD __attribute__((noinline, cold))
 #elif defined(_MSC_VER)
 #define SOMM_ENCODE_INLINE __forceinline
+#define SOMM_ENCODE_COLD __declspec(noinline)
 #else
 #define SOMM_ENCODE_INLINE inline
+#define SOMM_ENCODE_COLD
 #endif
 
 // Population count of a 16-bit value (DAG masks and flags): the instruction when the build targets it, else two
@@ -865,27 +868,30 @@ class EncodedArray {
     return indices_[triangle];
   }
 
+  // A memo entry (re)filled for `triangle`: out of line, so that the lookup's hit path keeps its registers.
+  SOMM_ENCODE_COLD void sdagMemoFill(encode::SdagMemo::Entry& e, uint32_t triangle) const noexcept {
+    const int32_t i = indexAs<Encoding::Sdag>(triangle);
+    e.array = identity_;
+    e.triangle = triangle;
+    e.index = ~0u;
+    if (i < 0) {
+      e.kind = 2;
+      e.root = uint32_t(stateOfSpecialIndex(i));
+    } else {
+      const EncodedMapDesc& d = maps_[size_t(i)];
+      e.kind = d.kind == MapKind::Flat ? 1 : 0;
+      e.root = d.offset;
+      e.level = d.level;
+      e.format = d.format;
+    }
+  }
+
   // The sdag lookup of a triangle through the per-thread memo (encode::SdagMemo); indexOf(level) gives the
   // micro-triangle index once the triangle's level is known.
   template <class IndexOf>
   SOMM_ENCODE_INLINE State sdagMemoState(uint32_t triangle, IndexOf indexOf) const noexcept {
     encode::SdagMemo::Entry& e = encode::sdagMemoEntry(triangle);
-    if (e.array != identity_ || e.triangle != triangle) {
-      const int32_t i = indexAs<Encoding::Sdag>(triangle);
-      e.array = identity_;
-      e.triangle = triangle;
-      e.index = ~0u;
-      if (i < 0) {
-        e.kind = 2;
-        e.root = uint32_t(stateOfSpecialIndex(i));
-      } else {
-        const EncodedMapDesc& d = maps_[size_t(i)];
-        e.kind = d.kind == MapKind::Flat ? 1 : 0;
-        e.root = d.offset;
-        e.level = d.level;
-        e.format = d.format;
-      }
-    }
+    if (e.array != identity_ || e.triangle != triangle) sdagMemoFill(e, triangle);
     if (e.kind == 2) return State(e.root);
     const uint32_t index = indexOf(e.level);
     const Format f = Format(e.format);

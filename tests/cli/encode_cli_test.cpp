@@ -2,6 +2,7 @@
 // somm query --encoding, somm info --json encoding sizes, somm compare.
 #include <gtest/gtest.h>
 
+#include <map>
 #include <nlohmann/json.hpp>
 #include <random>
 #include <string>
@@ -175,6 +176,35 @@ TEST(CliEncode, CompareTableJsonAndPlot) {
   EXPECT_EQ(r.exitCode, 2);
   r = runSomm(dir, "compare " + shellQuote(dir / "missing.gltf"));
   EXPECT_EQ(r.exitCode, 1);
+}
+
+// compare takes bake's material overrides (--cutoff, --filter): its bytes per encoding are those of the array
+// `somm bake` stores with the same options (info --json encoding_sizes), and the cutoff changes them.
+TEST(CliEncode, CompareTakesBakesMaterialOverrides) {
+  TempDir dir;
+  const std::string scene = shellQuote(std::string(SOMM_DATA_DIR) + "/redeclipse-tree01/tree01.obj");
+  std::map<std::string, uint64_t> dfsBytes;
+  for (const char* opts : {" --cutoff 0.2", " --cutoff 0.7", " --cutoff 0.7 --filter nearest"}) {
+    RunResult c = runSomm(dir, "compare " + scene + " --levels 5 --formats 4 --json --lookups 0" + opts);
+    ASSERT_EQ(c.exitCode, 0) << c.err;
+    const nlohmann::json row = nlohmann::json::parse(c.out)["rows"][0];
+    const std::string out = dir / "t.somm";
+    RunResult b = runSomm(dir, "bake " + scene + " --level 5 --encoding all -o " + shellQuote(out) + opts);
+    ASSERT_EQ(b.exitCode, 0) << b.err;
+    RunResult i = runSomm(dir, "info " + shellQuote(out) + " --json");
+    ASSERT_EQ(i.exitCode, 0) << i.err;
+    const nlohmann::json sizes = nlohmann::json::parse(i.out)["arrays"][0]["encoding_sizes"];
+    for (const char* e : {"flat", "dfs", "rank", "hybrid", "csm", "sdag"}) {
+      EXPECT_EQ(row[e]["bytes"], sizes[e]["bytes"]) << opts << " " << e;
+    }
+    dfsBytes[opts] = row["dfs"]["bytes"].get<uint64_t>();
+  }
+  EXPECT_NE(dfsBytes[" --cutoff 0.2"], dfsBytes[" --cutoff 0.7"]);
+  RunResult r = runSomm(dir, "compare " + scene + " --levels 4 --cutoff 1.5");
+  EXPECT_EQ(r.exitCode, 2);
+  EXPECT_NE(r.err.find("--cutoff"), std::string::npos) << r.err;
+  r = runSomm(dir, "compare " + scene + " --levels 4 --filter cubic");
+  EXPECT_EQ(r.exitCode, 2);
 }
 
 TEST(CliEncode, BakeStoresEncodings) {

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
@@ -240,6 +241,9 @@ struct Options {
   uint32_t lookups = 20000;
   float texelsPerMicroTri = 0;  // > 0: each level is a cap of adaptive levels
   bool sdagStats = false;
+  std::string filter = "auto";  // as somm bake --filter
+  std::optional<float> cutoff;  // as somm bake --cutoff
+  bool blendAsMask = false;     // as somm bake --blend-as-mask
 };
 
 struct Row {
@@ -528,6 +532,10 @@ int run(const Options& o) {
     printError("compare", "--formats '" + o.formats + "' must be a comma list of 2 and 4");
     return kExitUsage;
   }
+  if (o.cutoff && !(std::isfinite(*o.cutoff) && *o.cutoff >= 0.0f && *o.cutoff <= 1.0f)) {
+    printError("compare", "--cutoff must be a number in [0, 1]");
+    return kExitUsage;
+  }
   somm::Scene scene;
   if (o.scene.rfind("procedural:leaf-cards", 0) == 0 && o.scenes.size() == 1) {
     uint64_t cards = 64;
@@ -542,6 +550,7 @@ int run(const Options& o) {
   } else {
     // Several files are one scene (e.g. every model of a game's foliage): geometries in file order.
     somm::LoadOptions lo;
+    lo.blendAsMask = o.blendAsMask;
     if (!applyLimits("compare", o.limits, lo.limits)) return kExitUsage;
     for (const std::string& path : o.scenes) {
       auto s = somm::loadScene(path, lo);
@@ -571,6 +580,9 @@ int run(const Options& o) {
       }
       bo.format = states == 2 ? somm::Format::TwoState : somm::Format::FourState;
       bo.threads = o.threads;
+      bo.cutoff = o.cutoff;
+      if (o.filter == "nearest") bo.filter = somm::Filter::Nearest;
+      if (o.filter == "linear") bo.filter = somm::Filter::Linear;
       // Per geometry with the library baker, then one scene-wide array (identical maps stored once) as the
       // default bake stores it: every encoding is built from that array.
       std::vector<somm::OmmArray> perGeometry;
@@ -781,6 +793,13 @@ void setup(CLI::App& root) {
       "--texels-per-microtri", opts->texelsPerMicroTri,
       "adaptive levels (as bake --texels-per-microtri): each --levels value is the cap --max-level");
   cmd->add_flag("--sdag-stats", opts->sdagStats, "print the bytes of the sdag DAG per height to stderr");
+  cmd->add_option("--filter", opts->filter,
+                  "as bake: auto (each material's sampler; OBJ: linear), nearest or linear")
+      ->check(CLI::IsMember({"auto", "nearest", "linear"}));
+  cmd->add_option("--cutoff", opts->cutoff,
+                  "as bake: alpha cutoff in [0, 1] for every material (default: the material's)");
+  cmd->add_flag("--blend-as-mask", opts->blendAsMask,
+                "as bake: bake glTF BLEND materials as MASK with their cutoff");
   cmd->add_option(
       "--lookups", opts->lookups,
       "random (u, v) lookups timed per encoding, checked against flat (0 = do not time; default 20000)");

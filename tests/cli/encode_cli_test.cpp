@@ -2,6 +2,7 @@
 // somm query --encoding, somm info --json encoding sizes, somm compare.
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <random>
@@ -176,6 +177,33 @@ TEST(CliEncode, CompareTableJsonAndPlot) {
   EXPECT_EQ(r.exitCode, 2);
   r = runSomm(dir, "compare " + shellQuote(dir / "missing.gltf"));
   EXPECT_EQ(r.exitCode, 1);
+}
+
+// A row over a limit (here the bake's micro-triangle budget, as somm bake checks it) is reported with its error
+// and the other rows still run; the exit code is 1.
+TEST(CliEncode, CompareKeepsTheRowsWithinLimits) {
+  TempDir dir;
+  const std::string base = "compare procedural:leaf-cards:6 --levels 2,5 --formats 4 --lookups 0";
+  const nlohmann::json full = nlohmann::json::parse(runSomm(dir, base + " --json").out);
+  RunResult r =
+      runSomm(dir, base + " --json --limit micro-triangles=1000 --plot " + shellQuote(dir / "p.png"));
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.err.find("level 5, 4-state"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("micro-triangles"), std::string::npos) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  ASSERT_EQ(j["rows"].size(), 2u);
+  EXPECT_EQ(j["rows"][0]["level"], 2);
+  EXPECT_FALSE(j["rows"][0].contains("error"));
+  EXPECT_EQ(j["rows"][0]["sdag"]["bytes"], full["rows"][0]["sdag"]["bytes"]);
+  EXPECT_EQ(j["rows"][1]["level"], 5);
+  EXPECT_NE(j["rows"][1]["error"].get<std::string>().find("micro-triangles"), std::string::npos);
+  EXPECT_FALSE(j["rows"][1].contains("sdag"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "p.png"));
+  r = runSomm(dir, base + " --limit micro-triangles=1000");
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.out.find("error: "), std::string::npos) << r.out;
+  r = runSomm(dir, base + " --limit micro-triangles=100000");
+  EXPECT_EQ(r.exitCode, 0) << r.err;
 }
 
 // compare takes bake's material overrides (--cutoff, --filter): its bytes per encoding are those of the array

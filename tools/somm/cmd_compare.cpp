@@ -253,6 +253,7 @@ struct Row {
   std::array<uint64_t, somm::kEncodingCount> bytes{};  // by Encoding: the scene-wide array
   std::array<double, somm::kEncodingCount> ns{};       // ns per random (u, v) lookup, 0 = not measured
   uint64_t xz = 0;                                     // xz -9 of the flat array's bytes
+  std::string error;  // non-empty: the row hit a limit (bake work, encoded size) and holds no sizes
   double ratio(Encoding e) const { return bytes[0] ? double(bytes[size_t(e)]) / double(bytes[0]) : 0.0; }
   double ratioTo(Encoding e, uint64_t base) const {
     return base ? double(bytes[size_t(e)]) / double(base) : 0.0;
@@ -536,6 +537,9 @@ int run(const Options& o) {
     printError("compare", "--cutoff must be a number in [0, 1]");
     return kExitUsage;
   }
+  somm::LoadOptions lo;
+  lo.blendAsMask = o.blendAsMask;
+  if (!applyLimits("compare", o.limits, lo.limits)) return kExitUsage;
   somm::Scene scene;
   if (o.scene.rfind("procedural:leaf-cards", 0) == 0 && o.scenes.size() == 1) {
     uint64_t cards = 64;
@@ -549,9 +553,6 @@ int run(const Options& o) {
     scene = somm::makeLeafCardScene(uint32_t(cards), 1);
   } else {
     // Several files are one scene (e.g. every model of a game's foliage): geometries in file order.
-    somm::LoadOptions lo;
-    lo.blendAsMask = o.blendAsMask;
-    if (!applyLimits("compare", o.limits, lo.limits)) return kExitUsage;
     for (const std::string& path : o.scenes) {
       auto s = somm::loadScene(path, lo);
       if (!s) {
@@ -566,7 +567,18 @@ int run(const Options& o) {
       }
     }
   }
+  scene.sourcePath = o.scene;
   std::vector<Row> rows;
+  bool rowFailed = false;
+  // A row that hits a limit (the bake's micro-triangle budget, as somm bake checks it; an encoded array over
+  // 2 GiB) is reported and the other rows still run: a table of levels 8..12 keeps its feasible rows.
+  auto limitRow = [&](Row& row, const std::string& message) {
+    row.error = message;
+    rowFailed = true;
+    printError("compare", "level " + std::to_string(row.level) + ", " + std::to_string(row.states) +
+                              "-state: " + message);
+    rows.push_back(row);
+  };
   for (uint32_t states : formats)
     for (uint32_t level : levels) {
       Row row;
@@ -583,6 +595,10 @@ int run(const Options& o) {
       bo.cutoff = o.cutoff;
       if (o.filter == "nearest") bo.filter = somm::Filter::Nearest;
       if (o.filter == "linear") bo.filter = somm::Filter::Linear;
+      if (somm::Status st = checkBakeWork(scene, bo, lo.limits); !st) {
+        limitRow(row, st.error().message);
+        continue;
+      }
       // Per geometry with the library baker, then one scene-wide array (identical maps stored once) as the
       // default bake stores it: every encoding is built from that array.
       std::vector<somm::OmmArray> perGeometry;
@@ -601,8 +617,14 @@ int run(const Options& o) {
       row.triangles = flat.indices.size();
       row.maps = flat.descriptors.size();
       const Queries q = makeQueries(flat, o.lookups);
+      bool limited = false;
       for (Encoding e : somm::kAllEncodings) {
         auto a = somm::EncodedArray::build(flat, e);
+        if (!a && a.error().code == somm::ErrorCode::LimitExceeded) {
+          limitRow(row, o.scene + ": " + a.error().message);
+          limited = true;
+          break;
+        }
         if (!a) {
           printError("compare", o.scene + ": " + a.error().message);
           return kExitFailure;
@@ -681,7 +703,7 @@ int run(const Options& o) {
           return kExitFailure;
         }
       }
-      rows.push_back(row);
+      if (!limited) rows.push_back(row);
     }
 
   Output out;
@@ -692,6 +714,11 @@ int run(const Options& o) {
     for (const Row& r : rows) {
       nlohmann::json x{
           {"level", r.level}, {"format", r.states}, {"triangles", r.triangles}, {"micromaps", r.maps}};
+      if (!r.error.empty()) {
+        x["error"] = r.error;
+        rs.push_back(std::move(x));
+        continue;
+      }
       for (Encoding e : somm::kAllEncodings) {
         nlohmann::json c{{"bytes", r.bytes[size_t(e)]},
                          {"ratio_to_flat", r.ratio(e)},
@@ -726,6 +753,11 @@ int run(const Options& o) {
       }
     out.put("\n");
     for (const Row& r : rows) {
+      if (!r.error.empty()) {
+        std::snprintf(buf, sizeof buf, "%5u %6u ", r.level, r.states);
+        out.put(buf + ("error: " + r.error) + "\n");
+        continue;
+      }
       std::snprintf(buf, sizeof buf, "%5u %6u %8llu %12llu", r.level, r.states, (unsigned long long)r.maps,
                     (unsigned long long)r.bytes[0]);
       out.put(buf);
@@ -746,6 +778,7 @@ int run(const Options& o) {
     }
     out.put("\n");
     for (const Row& r : rows) {
+      if (!r.error.empty()) continue;
       std::snprintf(buf, sizeof buf, "%5u %6u %10llu", r.level, r.states, (unsigned long long)r.xz);
       out.put(buf);
       for (Encoding e : somm::kAllEncodings) {
@@ -760,13 +793,16 @@ int run(const Options& o) {
   }
   out.flush();
   if (!o.plot.empty()) {
-    auto st = writePlot(o.plot, rows, levels, formats);
+    std::vector<Row> plotted;
+    for (const Row& r : rows)
+      if (r.error.empty()) plotted.push_back(r);
+    auto st = writePlot(o.plot, plotted, levels, formats);
     if (!st) {
       printError("compare", st.error().message);
       return kExitFailure;
     }
   }
-  return kExitOk;
+  return rowFailed ? kExitFailure : kExitOk;
 }
 
 void setup(CLI::App& root) {

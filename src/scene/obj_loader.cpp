@@ -445,6 +445,8 @@ Result<Scene> ObjLoader::run() {
   for (size_t si = 0; si < shapes.size(); ++si) {
     const tinyobj::mesh_t& mesh = shapes[si].mesh;
     const std::string shapeName = shapes[si].name.empty() ? "shape" + std::to_string(si) : shapes[si].name;
+    const size_t firstOfShape =
+        scene_.geometries.size();  // a shape's geometries are new (keyed by the shape)
     size_t offset = 0;
     for (size_t f = 0; f < mesh.num_face_vertices.size(); ++f) {
       const size_t n = mesh.num_face_vertices[f];
@@ -512,15 +514,20 @@ Result<Scene> ObjLoader::run() {
       }
       offset += n;
     }
+    // The shape is done: its faces, its geometries' vertex maps and their growth slack are freed now rather than
+    // at the end, so that the parser's arrays and ours do not peak together.
+    shapes[si].mesh = tinyobj::mesh_t{};
+    for (size_t gi = firstOfShape; gi < scene_.geometries.size(); ++gi) {
+      builders[gi] = Builder{};
+      Geometry& g = scene_.geometries[gi];
+      g.positions.shrink_to_fit();
+      g.uvs.shrink_to_fit();
+      g.indices.shrink_to_fit();
+    }
   }
   attrib = tinyobj::attrib_t{};
   std::vector<tinyobj::shape_t>().swap(shapes);
   std::vector<Builder>().swap(builders);
-  for (Geometry& g : scene_.geometries) {
-    g.positions.shrink_to_fit();
-    g.uvs.shrink_to_fit();
-    g.indices.shrink_to_fit();
-  }
   prefetchImages(mats);
   for (const auto& tm : mats) {
     Material m;

@@ -445,8 +445,8 @@ Result<Scene> ObjLoader::run() {
   for (size_t si = 0; si < shapes.size(); ++si) {
     const tinyobj::mesh_t& mesh = shapes[si].mesh;
     const std::string shapeName = shapes[si].name.empty() ? "shape" + std::to_string(si) : shapes[si].name;
-    const size_t firstOfShape =
-        scene_.geometries.size();  // a shape's geometries are new (keyed by the shape)
+    // The shape's geometries are new ones (geometries are keyed by shape and material).
+    const size_t firstOfShape = scene_.geometries.size();
     size_t offset = 0;
     for (size_t f = 0; f < mesh.num_face_vertices.size(); ++f) {
       const size_t n = mesh.num_face_vertices[f];

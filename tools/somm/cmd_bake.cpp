@@ -31,14 +31,12 @@ struct Options {
   std::optional<uint32_t> level, maxLevel;
   std::optional<float> texelsPerMicroTri;
   uint32_t format = 4;
-  std::string filter = "auto";
-  std::optional<float> cutoff;
+  somm::cli::MaterialOverrides material;  // --filter, --cutoff, --blend-as-mask
   std::string unknownAs = "majority";
   uint64_t maxBytes = 0;
   bool estimate = false;
   uint32_t threads = 0;
   bool json = false;
-  bool blendAsMask = false;
   std::string encodings;            // --encoding: comma list or "all" (flat is always stored)
   std::vector<std::string> limits;  // --limit NAME=VALUE
   std::string arrays = "scene";     // --arrays: one scene-wide OMM array, or one per geometry
@@ -118,8 +116,7 @@ int run(const Options& o) {
     return usage("--max-level and --texels-per-microtri go together (adaptive levels)");
   if (o.texelsPerMicroTri && !(*o.texelsPerMicroTri > 0 && std::isfinite(*o.texelsPerMicroTri)))
     return usage("--texels-per-microtri must be a finite number > 0");
-  if (o.cutoff && !(std::isfinite(*o.cutoff) && *o.cutoff >= 0.0f && *o.cutoff <= 1.0f))
-    return usage("--cutoff must be a number in [0, 1]");
+  if (!applyMaterialOverrides("bake", o.material, bo)) return kExitUsage;
   if (!o.estimate && o.output.empty()) return usage("-o OUT.somm is required (or --estimate)");
   bo.level = o.level.value_or(6);
   if (o.maxLevel) {
@@ -127,9 +124,6 @@ int run(const Options& o) {
     bo.texelsPerMicroTri = *o.texelsPerMicroTri;
   }
   bo.format = o.format == 2 ? somm::Format::TwoState : somm::Format::FourState;
-  if (o.filter == "nearest") bo.filter = somm::Filter::Nearest;
-  if (o.filter == "linear") bo.filter = somm::Filter::Linear;
-  bo.cutoff = o.cutoff;
   bo.unknownAs = o.unknownAs == "opaque"        ? somm::UnknownAs::Opaque
                  : o.unknownAs == "transparent" ? somm::UnknownAs::Transparent
                                                 : somm::UnknownAs::Majority;
@@ -152,7 +146,7 @@ int run(const Options& o) {
 
   // ---- scene ----
   somm::LoadOptions lo;
-  lo.blendAsMask = o.blendAsMask;
+  lo.blendAsMask = o.material.blendAsMask;
   lo.loadColor = false;  // the bake needs only the alpha
   if (!applyLimits("bake", o.limits, lo.limits)) return kExitUsage;
   if (!o.output.empty())
@@ -240,11 +234,12 @@ int run(const Options& o) {
     file.bakeOptions.emplace_back("level", std::to_string(bo.level));
   }
   file.bakeOptions.emplace_back("format", std::to_string(o.format));
-  file.bakeOptions.emplace_back("filter", o.filter);
-  file.bakeOptions.emplace_back("cutoff", o.cutoff ? floatText(*o.cutoff) : std::string("material"));
+  file.bakeOptions.emplace_back("filter", o.material.filter);
+  file.bakeOptions.emplace_back("cutoff",
+                                o.material.cutoff ? floatText(*o.material.cutoff) : std::string("material"));
   if (o.format == 2) file.bakeOptions.emplace_back("unknown_as", o.unknownAs);
   if (o.maxBytes) file.bakeOptions.emplace_back("max_bytes", std::to_string(o.maxBytes));
-  file.bakeOptions.emplace_back("blend_as_mask", o.blendAsMask ? "true" : "false");
+  file.bakeOptions.emplace_back("blend_as_mask", o.material.blendAsMask ? "true" : "false");
 
   file.bakeOptions.emplace_back("arrays", o.arrays);
   const bool sceneArray = o.arrays == "scene";
@@ -380,10 +375,7 @@ void setup(CLI::App& root) {
       "--texels-per-microtri", o->texelsPerMicroTri,
       "adaptive levels: per triangle the smallest level whose micro-triangles cover at most S texels");
   cmd->add_option("--format", o->format, "2 or 4 states (default 4)")->check(CLI::IsMember({2u, 4u}));
-  cmd->add_option("--filter", o->filter, "auto (each material's sampler; OBJ: linear), nearest or linear")
-      ->check(CLI::IsMember({"auto", "nearest", "linear"}));
-  cmd->add_option("--cutoff", o->cutoff,
-                  "alpha cutoff in [0, 1] for every material (default: the material's)");
+  somm::cli::addMaterialOverrideOptions(cmd, o->material);
   cmd->add_option("--unknown-as", o->unknownAs,
                   "2-state: what unknown micro-triangles become (default majority)")
       ->check(CLI::IsMember({"opaque", "transparent", "majority"}));
@@ -403,7 +395,6 @@ void setup(CLI::App& root) {
                   "geometry: one array per geometry")
       ->check(CLI::IsMember({"scene", "geometry"}));
   cmd->add_flag("--json", o->json, "print the summary as JSON (keys in docs/cli.md)");
-  cmd->add_flag("--blend-as-mask", o->blendAsMask, "bake glTF BLEND materials as MASK with their cutoff");
   cmd->callback([o] { somm::cli::setExitCode(run(*o)); });
 }
 

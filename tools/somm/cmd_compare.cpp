@@ -10,7 +10,6 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
-#include <optional>
 #include <set>
 #include <string>
 #include <vector>
@@ -241,9 +240,7 @@ struct Options {
   uint32_t lookups = 20000;
   float texelsPerMicroTri = 0;  // > 0: each level is a cap of adaptive levels
   bool sdagStats = false;
-  std::string filter = "auto";  // as somm bake --filter
-  std::optional<float> cutoff;  // as somm bake --cutoff
-  bool blendAsMask = false;     // as somm bake --blend-as-mask
+  somm::cli::MaterialOverrides material;  // --filter, --cutoff, --blend-as-mask, as in somm bake
 };
 
 struct Row {
@@ -533,12 +530,10 @@ int run(const Options& o) {
     printError("compare", "--formats '" + o.formats + "' must be a comma list of 2 and 4");
     return kExitUsage;
   }
-  if (o.cutoff && !(std::isfinite(*o.cutoff) && *o.cutoff >= 0.0f && *o.cutoff <= 1.0f)) {
-    printError("compare", "--cutoff must be a number in [0, 1]");
-    return kExitUsage;
-  }
+  somm::BakeOptions overrides;
+  if (!applyMaterialOverrides("compare", o.material, overrides)) return kExitUsage;
   somm::LoadOptions lo;
-  lo.blendAsMask = o.blendAsMask;
+  lo.blendAsMask = o.material.blendAsMask;
   if (!applyLimits("compare", o.limits, lo.limits)) return kExitUsage;
   somm::Scene scene;
   if (o.scene.rfind("procedural:leaf-cards", 0) == 0 && o.scenes.size() == 1) {
@@ -577,14 +572,13 @@ int run(const Options& o) {
     rowFailed = true;
     printError("compare", "level " + std::to_string(row.level) + ", " + std::to_string(row.states) +
                               "-state: " + message);
-    rows.push_back(row);
   };
   for (uint32_t states : formats)
     for (uint32_t level : levels) {
       Row row;
       row.level = level;
       row.states = states;
-      somm::BakeOptions bo;
+      somm::BakeOptions bo = overrides;
       bo.level = level;
       if (o.texelsPerMicroTri > 0) {
         bo.maxLevel = level;
@@ -592,11 +586,9 @@ int run(const Options& o) {
       }
       bo.format = states == 2 ? somm::Format::TwoState : somm::Format::FourState;
       bo.threads = o.threads;
-      bo.cutoff = o.cutoff;
-      if (o.filter == "nearest") bo.filter = somm::Filter::Nearest;
-      if (o.filter == "linear") bo.filter = somm::Filter::Linear;
       if (somm::Status st = checkBakeWork(scene, bo, lo.limits); !st) {
         limitRow(row, st.error().message);
+        rows.push_back(row);
         continue;
       }
       // Per geometry with the library baker, then one scene-wide array (identical maps stored once) as the
@@ -617,12 +609,10 @@ int run(const Options& o) {
       row.triangles = flat.indices.size();
       row.maps = flat.descriptors.size();
       const Queries q = makeQueries(flat, o.lookups);
-      bool limited = false;
       for (Encoding e : somm::kAllEncodings) {
         auto a = somm::EncodedArray::build(flat, e);
         if (!a && a.error().code == somm::ErrorCode::LimitExceeded) {
           limitRow(row, o.scene + ": " + a.error().message);
-          limited = true;
           break;
         }
         if (!a) {
@@ -703,7 +693,7 @@ int run(const Options& o) {
           return kExitFailure;
         }
       }
-      if (!limited) rows.push_back(row);
+      rows.push_back(row);
     }
 
   Output out;
@@ -829,13 +819,7 @@ void setup(CLI::App& root) {
       "--texels-per-microtri", opts->texelsPerMicroTri,
       "adaptive levels (as bake --texels-per-microtri): each --levels value is the cap --max-level");
   cmd->add_flag("--sdag-stats", opts->sdagStats, "print the bytes of the sdag DAG per height to stderr");
-  cmd->add_option("--filter", opts->filter,
-                  "as bake: auto (each material's sampler; OBJ: linear), nearest or linear")
-      ->check(CLI::IsMember({"auto", "nearest", "linear"}));
-  cmd->add_option("--cutoff", opts->cutoff,
-                  "as bake: alpha cutoff in [0, 1] for every material (default: the material's)");
-  cmd->add_flag("--blend-as-mask", opts->blendAsMask,
-                "as bake: bake glTF BLEND materials as MASK with their cutoff");
+  somm::cli::addMaterialOverrideOptions(cmd, opts->material);
   cmd->add_option(
       "--lookups", opts->lookups,
       "random (u, v) lookups timed per encoding, checked against flat (0 = do not time; default 20000)");

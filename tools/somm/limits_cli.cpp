@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: MIT
 #include "limits_cli.h"
 
+#include <cmath>
+
 #include "command.h"
 
 namespace somm::cli {
@@ -13,6 +15,25 @@ void addLimitOption(CLI::App* cmd, std::vector<std::string>& assignments) {
       ->take_all()
       ->expected(1)
       ->allow_extra_args(false);
+}
+
+void addMaterialOverrideOptions(CLI::App* cmd, MaterialOverrides& m) {
+  cmd->add_option("--filter", m.filter, "auto (each material's sampler; OBJ: linear), nearest or linear")
+      ->check(CLI::IsMember({"auto", "nearest", "linear"}));
+  cmd->add_option("--cutoff", m.cutoff,
+                  "alpha cutoff in [0, 1] for every material (default: the material's)");
+  cmd->add_flag("--blend-as-mask", m.blendAsMask, "bake glTF BLEND materials as MASK with their cutoff");
+}
+
+bool applyMaterialOverrides(const char* command, const MaterialOverrides& m, BakeOptions& bo) {
+  if (m.cutoff && !(std::isfinite(*m.cutoff) && *m.cutoff >= 0.0f && *m.cutoff <= 1.0f)) {
+    printError(command, "--cutoff must be a number in [0, 1]");
+    return false;
+  }
+  bo.cutoff = m.cutoff;
+  if (m.filter == "nearest") bo.filter = Filter::Nearest;
+  if (m.filter == "linear") bo.filter = Filter::Linear;
+  return true;
 }
 
 bool applyLimits(const char* command, const std::vector<std::string>& assignments, Limits& limits) {

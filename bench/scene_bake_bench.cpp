@@ -338,6 +338,7 @@ somm::Result<CommandRun> bakeCommand(const std::string& path, uint32_t level, ui
   tbb::global_control cap(tbb::global_control::max_allowed_parallelism, threads);
   somm::LoadOptions lo;
   lo.loadColor = false;
+  lo.loadPositions = false;  // as `somm bake`
   auto scene = somm::loadScene(path, lo);
   if (!scene) return scene.error();
   const auto b0 = std::chrono::steady_clock::now();

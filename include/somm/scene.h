@@ -98,6 +98,11 @@ struct LoadOptions {
   // Keep the base colour images (Material::baseColor) for shading. False: baseColor stays null and only what the
   // alpha test needs is kept (`somm bake`: the images are still decoded, for their alpha, then dropped).
   bool loadColor = true;
+  // Keep the vertex positions (Geometry::positions). False: positions stay empty and everything else is what a
+  // full load gives (the same geometries, vertex numbering, UVs, triangles, materials, textures and warnings):
+  // what baking reads (`somm bake`). An OBJ is then parsed without tinyobjloader's whole-file arrays (less memory
+  // and time; docs/scene.md "UV-only loading").
+  bool loadPositions = true;
   Limits limits;  // file sizes, image pixels, nodes, instances (docs/hardening.md)
 };
 

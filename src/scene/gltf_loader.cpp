@@ -252,6 +252,7 @@ struct AccessorView {
 class GltfLoader {
  public:
   GltfLoader(std::string path, const LoadOptions& opts) : path_(std::move(path)), opts_(opts) {}
+  uint64_t droppedNonFinite() const { return droppedNonFinite_; }
 
   Result<Scene> run(bool binary);
 
@@ -273,6 +274,8 @@ class GltfLoader {
 
   std::string path_;
   LoadOptions opts_;
+  uint64_t droppedNonFinite_ =
+      0;  // non-finite position components not kept (LoadOptions::loadPositions false)
   tinygltf::Model model_;
   Scene scene_;
   std::vector<MatInfo> matInfo_;
@@ -573,9 +576,14 @@ Status GltfLoader::loadGeometries() {
                                 : n);
           !b.ok())
         return b;
-      g.positions.resize(n * 3);
-      for (size_t i = 0; i < n; ++i)
-        for (int c = 0; c < 3; ++c) g.positions[i * 3 + size_t(c)] = narrow(pos->component(i, c));
+      if (opts_.loadPositions) {
+        g.positions.resize(n * 3);
+        for (size_t i = 0; i < n; ++i)
+          for (int c = 0; c < 3; ++c) g.positions[i * 3 + size_t(c)] = narrow(pos->component(i, c));
+      } else {  // not kept: only counted for loadScene's warning
+        for (size_t i = 0; i < n; ++i)
+          for (int c = 0; c < 3; ++c) droppedNonFinite_ += !std::isfinite(narrow(pos->component(i, c)));
+      }
 
       const MatInfo& info = matInfo_[g.material];
       g.uvs.assign(n * 2, 0.0f);
@@ -840,9 +848,12 @@ Result<Scene> GltfLoader::run(bool binary) {
 
 }  // namespace
 
-Result<Scene> loadGltf(const std::string& path, bool binary, const LoadOptions& options) {
+Result<Scene> loadGltf(const std::string& path, bool binary, const LoadOptions& options,
+                       uint64_t& nonFinitePositions) {
   GltfLoader loader(path, options);
-  return loader.run(binary);
+  Result<Scene> r = loader.run(binary);
+  nonFinitePositions = loader.droppedNonFinite();
+  return r;
 }
 
 }  // namespace somm::detail

@@ -15,6 +15,7 @@
 #include <cctype>
 #include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -34,8 +35,16 @@ namespace {
 // Face, line and point indices must fit tinyobjloader's int (it overflows silently): in a line whose first token
 // (after spaces and tabs) is f, l or p followed by a space or tab, every run of digits must be ≤ 2^31 − 1. The check
 // runs on the bytes as they stream to the parser (IndexScan::feed per chunk), so what is parsed is what was checked.
+//
+// With `strict` (the UV-only load, loadObjUvOnly) it also tells, in irregular(), whether the file uses anything
+// that tinyobjloader's callback parser reads differently from LoadObj: line (l) or point (p) elements, a line
+// starting with "usemtl" not followed by a space or tab, or a face (f) line that is not 1+ tokens of the strict
+// forms v, v/t, v//n, v/t/n (each an optional '-' and digits, value not 0) separated by spaces, tabs or CRs,
+// or skin weight (vw) lines (the callback parser skips them; LoadObj parses them and may fail). On such files the
+// caller loads the full way instead.
 class IndexScan {
  public:
+  explicit IndexScan(bool strict = false) : strict_(strict) {}
   // Scans bytes [p, p + n); false at the first out-of-range index (line() and token() tell which).
   bool feed(const char* p, size_t n) {
     for (size_t i = 0; i < n; ++i) {
@@ -46,50 +55,165 @@ class IndexScan {
             ++line_;
           } else if (c != ' ' && c != '\t') {
             phase_ = (c == 'f' || c == 'l' || c == 'p') ? kCandidate : kSkip;
+            lead_ = c;
+            word_ = strict_ && c == 'u' ? 1u : 0u;
+            vw_ = strict_ && c == 'v' ? 1u : 0u;
           }
           break;
         case kCandidate:
           if (c == '\n') {
             ++line_;
             phase_ = kLead;
+          } else if (c == ' ' || c == '\t') {
+            phase_ = kFace;
+            if (strict_ && lead_ != 'f') irregular_ = true;
+            face_ = FaceState{};
           } else {
-            phase_ = (c == ' ' || c == '\t') ? kFace : kSkip;
+            phase_ = kSkip;
           }
           break;
-        case kFace:
-          if (c >= '0' && c <= '9') {
-            if (!inNumber_) inNumber_ = true, value_ = 0, token_.clear();
-            if (value_ <= 0x7FFFFFFFu) value_ = value_ * 10 + uint64_t(c - '0');
-            if (token_.size() < 40) token_ += c;
-          } else {
-            if (!finishNumber()) return false;
-            if (c == '\n') ++line_, phase_ = kLead;
+        case kFace: {
+          // The rest of the line within these bytes, with the state in locals (the compiler must otherwise assume
+          // that the bytes alias the members).
+          const bool strict = strict_ && lead_ == 'f';
+          FaceState f = face_;
+          bool inNumber = inNumber_;
+          uint64_t value = value_;
+          uint32_t length = tokenLength_;
+          bool ok = true;
+          size_t j = i;
+          for (; j < n; ++j) {
+            const char d = p[j];
+            if (strict) strictFace(f, d);
+            if (d >= '0' && d <= '9') {
+              if (!inNumber) inNumber = true, value = 0, length = 0;
+              if (value <= 0x7FFFFFFFu) value = value * 10 + uint64_t(d - '0');
+              if (length < sizeof token_) token_[length++] = d;
+            } else {
+              if (inNumber) {
+                inNumber = false;
+                if (value > 0x7FFFFFFFu) {
+                  ok = false;
+                  break;
+                }
+              }
+              if (d == '\n') break;
+            }
           }
+          face_ = f;
+          irregular_ = irregular_ || f.irregular;  // sticky: face_ starts afresh on the next f line
+          inNumber_ = inNumber;
+          value_ = value;
+          tokenLength_ = length;
+          if (!ok) return false;
+          if (j < n) ++line_, phase_ = kLead;  // stopped at the newline
+          i = j;
           break;
+        }
         case kSkip:
-          if (c == '\n') ++line_, phase_ = kLead;
+          if (word_ != 0) usemtlWord(c);
+          if (vw_ != 0) {  // "vw" then a space or tab: a skin weight line (LoadObj may fail on it)
+            if (vw_ == 2 && (c == ' ' || c == '\t')) irregular_ = true;
+            vw_ = vw_ == 1 && c == 'w' ? 2u : 0u;
+          }
+          if (c == '\n') {
+            ++line_, phase_ = kLead;
+          } else if (word_ == 0 && vw_ == 0) {  // nothing more to check on this line: on to its end
+            const void* nl = std::memchr(p + i + 1, '\n', n - i - 1);
+            if (!nl) return true;
+            i = size_t(static_cast<const char*>(nl) - p);
+            ++line_, phase_ = kLead;
+          }
           break;
       }
     }
     return true;
   }
   // The end of the file: false when it ends inside an out-of-range index.
-  bool finish() { return phase_ != kFace || finishNumber(); }
+  bool finish() {
+    if (strict_ && phase_ == kFace && lead_ == 'f') {
+      strictFace(face_, '\n');
+      irregular_ = irregular_ || face_.irregular;
+    }
+    if (phase_ == kSkip && word_ != 0) usemtlWord('\n');
+    return phase_ != kFace || finishNumber();
+  }
   size_t line() const { return line_; }
-  const std::string& token() const { return token_; }
+  std::string token() const { return std::string(token_, tokenLength_); }
+  bool irregular() const { return irregular_; }
 
  private:
   enum Phase { kLead, kCandidate, kFace, kSkip };
+  // The strict check of an f line: the token and field being read.
+  struct FaceState {
+    uint32_t field = 0, fieldChars = 0, tokens = 0, slashes = 0;
+    bool inToken = false, sign = false, nonzero = false, cr = false, irregular = false;
+  };
   bool finishNumber() {
     if (!inNumber_) return true;
     inNumber_ = false;
     return value_ <= 0x7FFFFFFFu;
   }
+  // A line whose first character was lead_ == 'u': word_ characters of "usemtl" matched so far (0: not that word).
+  void usemtlWord(char c) {
+    static const char kWord[] = "usemtl";
+    if (word_ < 6) {
+      word_ = c == kWord[word_] ? word_ + 1 : 0;
+    } else {
+      if (c != ' ' && c != '\t') irregular_ = true;  // "usemtl" then something else: LoadObj still reads it
+      word_ = 0;
+    }
+  }
+  // One character of an f line's body (after "f "), strict forms only.
+  static void strictFace(FaceState& f, char c) {
+    if (f.cr && c != '\n')
+      f.irregular = true;  // a CR inside the line (LoadObj and the callback parser differ)
+    f.cr = c == '\r';
+    if (c == ' ' || c == '\t' || c == '\r' || c == '\n') {
+      if (f.inToken) {
+        endField(f, false);
+        f.inToken = false;
+        ++f.tokens;
+      }
+      if (c == '\n' && f.tokens == 0) f.irregular = true;  // a face without indices
+      return;
+    }
+    if (!f.inToken)
+      f.inToken = true, f.field = 0, f.fieldChars = 0, f.sign = false, f.nonzero = false, f.slashes = 0;
+    if (c == '/') {
+      endField(f, true);
+      ++f.slashes;
+      if (f.slashes > 2) f.irregular = true;
+      f.field = f.slashes, f.fieldChars = 0, f.sign = false, f.nonzero = false;
+    } else if (c == '-' && f.fieldChars == 0 && !f.sign) {
+      f.sign = true;
+    } else if (c >= '0' && c <= '9') {
+      ++f.fieldChars;
+      f.nonzero = f.nonzero || c != '0';
+    } else {
+      f.irregular = true;
+    }
+  }
+  // The field that ends here (`slash`: a '/' follows): empty only as the middle field of v//n.
+  static void endField(FaceState& f, bool slash) {
+    if (f.fieldChars == 0) {
+      if (f.sign || !(f.field == 1 && slash)) f.irregular = true;
+    } else if (!f.nonzero) {
+      f.irregular = true;
+    }
+  }
+  bool strict_;
+  bool irregular_ = false;
   Phase phase_ = kLead;
+  char lead_ = 0;
+  uint32_t word_ = 0;
+  uint32_t vw_ = 0;  // a line whose first character was 'v' (strict): 1, then 2 after "vw" (0: neither)
+  FaceState face_;
   size_t line_ = 1;
   bool inNumber_ = false;
   uint64_t value_ = 0;
-  std::string token_;
+  char token_[40] = {};  // the digits of the last number (the first 40)
+  uint32_t tokenLength_ = 0;
 };
 
 // The OBJ file as a stream for the parser, read in 64 KiB chunks from the open file (at most `size` bytes: a
@@ -97,18 +221,23 @@ class IndexScan {
 // stream at a read error or an out-of-range index (readFailed() / badIndex() and scan() tell).
 class ObjFileBuf : public std::streambuf {
  public:
-  ObjFileBuf(int fd, uint64_t size) : fd_(fd), left_(size) {}
+  ObjFileBuf(int fd, uint64_t size, bool strict = false) : fd_(fd), left_(size), scan_(strict) {}
   ~ObjFileBuf() override { ::close(fd_); }
   ObjFileBuf(const ObjFileBuf&) = delete;
   ObjFileBuf& operator=(const ObjFileBuf&) = delete;
   bool readFailed() const { return readFailed_; }
   bool badIndex() const { return badIndex_; }
   const IndexScan& scan() const { return scan_; }
+  // Ends the stream after the bytes already handed out (the UV-only load gives up on an irregular file).
+  void stop() {
+    stopped_ = true;
+    setg(buf_, buf_, buf_);
+  }
 
  protected:
   int_type underflow() override {
     if (gptr() < egptr()) return traits_type::to_int_type(*gptr());
-    if (readFailed_ || badIndex_) return traits_type::eof();
+    if (readFailed_ || badIndex_ || stopped_) return traits_type::eof();
     ssize_t r = 0;
     if (left_ > 0) {
       do {
@@ -133,7 +262,7 @@ class ObjFileBuf : public std::streambuf {
  private:
   int fd_;
   uint64_t left_;
-  bool readFailed_ = false, badIndex_ = false;
+  bool readFailed_ = false, badIndex_ = false, stopped_ = false;
   IndexScan scan_;
   char buf_[1 << 16];
 };
@@ -159,11 +288,15 @@ class MtlReader : public tinyobj::MaterialReader {
     }
     std::istringstream in(std::string(bytes->begin(), bytes->end()));
     tinyobj::LoadMtl(matMap, materials, &in, warn, err);
+    materialMap = matMap;
     read.push_back(p.string());
     return true;
   }
   std::string error;
   std::vector<std::string> read;  // the material libraries read (Scene::inputFiles)
+  // The parser's material name → index map (the one it passed to the last read; the UV-only load resolves usemtl
+  // names in it as LoadObj does).
+  const std::map<std::string, int>* materialMap = nullptr;
 
  private:
   std::filesystem::path dir_;
@@ -222,8 +355,16 @@ class ObjLoader {
  public:
   ObjLoader(std::string path, const LoadOptions& opts) : path_(std::move(path)), opts_(opts) {}
   Result<Scene> run();
+  // The scene without positions, parsed by tinyobjloader's callback API (no whole-file arrays): the same result
+  // as run() with Geometry::positions cleared, or `irregular` set when the file uses something the callback
+  // parser reads differently (IndexScan's strict forms, a warning, a reference to a later or missing element):
+  // then run() must load it instead. `nonFinite`: the non-finite position components of the geometries' vertices.
+  Result<Scene> runUvOnly(bool& irregular, uint64_t& nonFinite);
 
  private:
+  // After parsing: the materials (images decoded), the default material, the warning for skipped faces, one
+  // instance per geometry.
+  Result<Scene> finish(const std::vector<tinyobj::material_t>& mats, int defaultMaterial, size_t degenerate);
   Error fail(ErrorCode code, const std::string& what) const { return makeError(code, path_ + ": " + what); }
   Result<std::shared_ptr<const LoadedTexture>> image(const std::string& texname, const std::string& material,
                                                      std::string& resolved);
@@ -528,6 +669,11 @@ Result<Scene> ObjLoader::run() {
   attrib = tinyobj::attrib_t{};
   std::vector<tinyobj::shape_t>().swap(shapes);
   std::vector<Builder>().swap(builders);
+  return finish(mats, defaultMaterial, degenerate);
+}
+
+Result<Scene> ObjLoader::finish(const std::vector<tinyobj::material_t>& mats, int defaultMaterial,
+                                size_t degenerate) {
   prefetchImages(mats);
   for (const auto& tm : mats) {
     Material m;
@@ -553,11 +699,212 @@ Result<Scene> ObjLoader::run() {
   return std::move(scene_);
 }
 
+// The UV-only parse: tinyobjloader's callback parser calls these with each element; shapes are split as LoadObj
+// splits them (a new shape at g and o once the current one has faces; usemtl does not split), so the geometries
+// (keyed by shape and material), their vertex numbering (by (v, vt) pair in order of first use) and triangles
+// are those of run().
+struct UvParse {
+  Scene* scene = nullptr;
+  ObjFileBuf* file = nullptr;
+  const MtlReader* mtl = nullptr;
+  std::vector<tinyobj::material_t> mats;
+  std::vector<float> vt;      // u, v per texture coordinate
+  std::vector<uint8_t> badV;  // per position: how many of x, y, z are not finite
+  uint64_t normals = 0;
+  int material = -1;
+  std::string name;   // the name of the current shape (g or o)
+  size_t shapes = 0;  // shapes LoadObj has pushed before the current one
+  bool shapeHasFaces = false;
+  int defaultMaterial = -1;
+  bool irregular = false;
+  uint64_t nonFinite = 0;
+  // The current shape's geometries: material → geometry, and each one's (v, vt) → vertex map.
+  std::map<int, uint32_t> geometryOf;
+  std::unordered_map<uint32_t, std::unordered_map<uint64_t, uint32_t>> remap;
+
+  void giveUp() {
+    irregular = true;
+    file->stop();
+  }
+  // LoadObj pushes the current shape (when it has faces) and starts a new one.
+  void endShape() {
+    if (shapeHasFaces) {
+      ++shapes;
+      for (const auto& [mat, gi] : geometryOf) {
+        Geometry& g = scene->geometries[gi];
+        g.uvs.shrink_to_fit();
+        g.indices.shrink_to_fit();
+      }
+    }
+    shapeHasFaces = false;
+    geometryOf.clear();
+    remap.clear();
+  }
+  // A raw index (non-zero: IndexScan's strict forms) resolved as LoadObj's fixIndex does against the `count`
+  // elements read so far; -1 when it does not name one of them (LoadObj would warn or the loader fail).
+  static int64_t resolve(int raw, uint64_t count) {
+    const int64_t i = raw > 0 ? int64_t(raw) - 1 : int64_t(count) + int64_t(raw);
+    return i >= 0 && uint64_t(i) < count ? i : -1;
+  }
+  void face(const tinyobj::index_t* ix, int n) {
+    if (irregular) return;
+    if (n < 3) return giveUp();  // LoadObj warns ("Degenerated face") and skips it
+    int mat = material;
+    if (mat >= int(mats.size())) mat = -1;
+    auto it = geometryOf.find(mat);
+    if (it == geometryOf.end()) {
+      Geometry g;
+      if (mat < 0) {
+        if (defaultMaterial < 0) defaultMaterial = -2;  // numbered once the materials are known
+        g.material = 0;
+      } else {
+        g.material = uint32_t(mat);
+      }
+      const std::string shapeName = name.empty() ? "shape" + std::to_string(shapes) : name;
+      g.name = shapeName + "/" + (mat < 0 ? std::string("default") : mats[size_t(mat)].name);
+      it = geometryOf.emplace(mat, uint32_t(scene->geometries.size())).first;
+      scene->geometries.push_back(std::move(g));
+      defaultOf.push_back(mat < 0);
+    }
+    const uint32_t gi = it->second;
+    Geometry& g = scene->geometries[gi];
+    auto& map = remap[gi];
+    const uint64_t nv = badV.size(), nt = vt.size() / 2;
+    uint32_t local[3] = {0, 0, 0};
+    for (int k = 0; k < n; ++k) {
+      const int64_t v = resolve(ix[k].vertex_index, nv);
+      const int64_t t = ix[k].texcoord_index == 0 ? -1 : resolve(ix[k].texcoord_index, nt);
+      if (v < 0 || (ix[k].texcoord_index != 0 && t < 0) ||
+          (ix[k].normal_index != 0 && resolve(ix[k].normal_index, normals) < 0))
+        return giveUp();
+      const uint64_t vkey = (uint64_t(uint32_t(v)) << 32) | uint32_t(int32_t(t));
+      auto [vit, inserted] = map.emplace(vkey, uint32_t(g.uvs.size() / 2));
+      if (inserted) {
+        nonFinite += badV[size_t(v)];
+        if (t >= 0) {
+          g.uvs.insert(g.uvs.end(), {vt[2 * size_t(t)], vt[2 * size_t(t) + 1]});
+        } else {
+          g.uvs.insert(g.uvs.end(), {0.0f, 0.0f});
+        }
+      }
+      const uint32_t li = vit->second;
+      if (k == 0) {
+        local[0] = li;
+      } else if (k == 1) {
+        local[1] = li;
+      } else {
+        local[2] = li;
+        g.indices.insert(g.indices.end(), {local[0], local[1], local[2]});
+        local[1] = li;
+      }
+    }
+    shapeHasFaces = true;
+  }
+  std::vector<bool> defaultOf;  // per geometry: it has the default material
+};
+
+Result<Scene> ObjLoader::runUvOnly(bool& irregular, uint64_t& nonFinite) {
+  irregular = false;
+  dir_ = std::filesystem::path(path_).parent_path();
+  auto opened = openRegularFile(path_, opts_.limits.sceneFileBytes, "OBJ file", "file-bytes.scene");
+  if (!opened) return opened.error();
+  auto file = std::make_unique<ObjFileBuf>(opened->fd, opened->size, true);
+  std::string warn, err;
+  MtlReader mtl(dir_, opts_.limits.mtlFileBytes);
+  UvParse u;
+  u.scene = &scene_;
+  u.file = file.get();
+  u.mtl = &mtl;
+  tinyobj::callback_t cb;
+  cb.vertex_cb = [](void* d, tinyobj::real_t x, tinyobj::real_t y, tinyobj::real_t z, tinyobj::real_t) {
+    static_cast<UvParse*>(d)->badV.push_back(
+        uint8_t(!std::isfinite(x) + !std::isfinite(y) + !std::isfinite(z)));
+  };
+  cb.normal_cb = [](void* d, tinyobj::real_t, tinyobj::real_t, tinyobj::real_t) {
+    ++static_cast<UvParse*>(d)->normals;
+  };
+  cb.texcoord_cb = [](void* d, tinyobj::real_t x, tinyobj::real_t y, tinyobj::real_t) {
+    auto& vt = static_cast<UvParse*>(d)->vt;
+    vt.push_back(float(x));
+    vt.push_back(float(y));
+  };
+  cb.index_cb = [](void* d, tinyobj::index_t* ix, int n) { static_cast<UvParse*>(d)->face(ix, n); };
+  cb.usemtl_cb = [](void* d, const char* text, int) {
+    UvParse& u = *static_cast<UvParse*>(d);
+    // LoadObj's name: the first word after "usemtl" (the callback parser passes the rest of the line).
+    const char* p = text + std::strspn(text, " \t");
+    const std::string nm(p, std::strcspn(p, " \t\r"));
+    const std::map<std::string, int>* map = u.mtl->materialMap;
+    if (!map || map->count(nm) == 0) return u.giveUp();  // LoadObj warns (material not found)
+    u.material = map->at(nm);
+  };
+  cb.mtllib_cb = [](void* d, const tinyobj::material_t* m, int n) {
+    auto& mats = static_cast<UvParse*>(d)->mats;
+    mats.assign(m, m + n);
+  };
+  cb.group_cb = [](void* d, const char** names, int n) {
+    UvParse& u = *static_cast<UvParse*>(d);
+    if (n < 1) return u.giveUp();  // LoadObj warns (empty group name)
+    u.endShape();
+    u.name = names[0];
+    for (int i = 1; i < n; ++i) u.name += std::string(" ") + names[i];
+  };
+  cb.object_cb = [](void* d, const char* name) {
+    UvParse& u = *static_cast<UvParse*>(d);
+    u.endShape();
+    u.name = name;
+  };
+  try {
+    std::istream in(file.get());
+    tinyobj::LoadObjWithCallback(in, cb, &u, &mtl, &warn, &err);
+  } catch (const std::exception& e) {
+    return fail(ErrorCode::CorruptFile, std::string("parser exception: ") + e.what());
+  }
+  if (u.irregular || file->scan().irregular() || file->readFailed() || file->badIndex() ||
+      !mtl.error.empty() || !warn.empty() || !err.empty()) {
+    irregular = true;  // run() loads it and reports what LoadObj and the checks report
+    return fail(ErrorCode::CorruptFile, "irregular");
+  }
+  u.endShape();
+  file.reset();
+  scene_.sourcePath = path_;
+  scene_.inputFiles.push_back(path_);
+  scene_.inputFiles.insert(scene_.inputFiles.end(), mtl.read.begin(), mtl.read.end());
+  std::vector<float>().swap(u.vt);
+  std::vector<uint8_t>().swap(u.badV);
+  // The default material comes after the file's (as in run()).
+  const int defaultMaterial = u.defaultMaterial == -1 ? -1 : int(u.mats.size());
+  for (size_t gi = 0; gi < scene_.geometries.size(); ++gi)
+    if (u.defaultOf[gi]) scene_.geometries[gi].material = uint32_t(defaultMaterial);
+  nonFinite = u.nonFinite;
+  return finish(u.mats, defaultMaterial, 0);
+}
+
 }  // namespace
 
-Result<Scene> loadObj(const std::string& path, const LoadOptions& options) {
+Result<Scene> loadObjUvOnly(const std::string& path, const LoadOptions& options, bool& irregular,
+                            uint64_t& nonFinitePositions) {
+  nonFinitePositions = 0;
+  ObjLoader uv(path, options);
+  return uv.runUvOnly(irregular, nonFinitePositions);
+}
+
+Result<Scene> loadObj(const std::string& path, const LoadOptions& options, uint64_t& nonFinitePositions) {
+  nonFinitePositions = 0;
+  if (!options.loadPositions) {
+    bool irregular = false;
+    Result<Scene> r = loadObjUvOnly(path, options, irregular, nonFinitePositions);
+    if (!irregular) return r;
+    nonFinitePositions = 0;
+  }
   ObjLoader loader(path, options);
-  return loader.run();
+  Result<Scene> r = loader.run();
+  if (r.ok() && !options.loadPositions)
+    for (Geometry& g : r->geometries) {
+      for (float v : g.positions) nonFinitePositions += !std::isfinite(v);
+      std::vector<float>().swap(g.positions);
+    }
+  return r;
 }
 
 }  // namespace somm::detail

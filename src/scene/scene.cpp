@@ -26,11 +26,12 @@ Result<Scene> loadScene(const std::string& path, const LoadOptions& options) {
     return makeError(ErrorCode::UnsupportedFormat,
                      path + ": unknown scene format '" + ext + "' (expected .gltf, .glb or .obj)");
   Result<Scene> r = makeError(ErrorCode::UnsupportedFormat, "");
+  uint64_t droppedBadPos = 0;  // non-finite components of positions not kept (LoadOptions::loadPositions)
   try {
     if (ext == ".obj")
-      r = detail::loadObj(path, options);
+      r = detail::loadObj(path, options, droppedBadPos);
     else
-      r = detail::loadGltf(path, ext == ".glb", options);
+      r = detail::loadGltf(path, ext == ".glb", options, droppedBadPos);
   } catch (const std::bad_alloc&) {
     return makeError(ErrorCode::LimitExceeded, path + ": out of memory while loading the scene");
   } catch (const std::length_error&) {
@@ -38,7 +39,7 @@ Result<Scene> loadScene(const std::string& path, const LoadOptions& options) {
   }
   if (!r.ok()) return r;
   Scene& s = r.value();
-  size_t badPos = 0, badUv = 0;
+  uint64_t badPos = droppedBadPos, badUv = 0;
   for (const Geometry& g : s.geometries) {
     for (float v : g.positions) badPos += !std::isfinite(v);
     for (float v : g.uvs) badUv += !std::isfinite(v);

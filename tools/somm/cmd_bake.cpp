@@ -148,6 +148,8 @@ int run(const Options& o) {
   somm::LoadOptions lo;
   lo.blendAsMask = o.material.blendAsMask;
   lo.loadColor = false;  // the bake needs only the alpha
+  // and the UVs (a glTF output holds the geometry too)
+  lo.loadPositions = !o.output.empty() && somm::isGltfPath(o.output);
   if (!applyLimits("bake", o.limits, lo.limits)) return kExitUsage;
   if (!o.output.empty())
     if (somm::Status s = somm::checkOutputPath(o.output, {o.scene}); !s) return usage(s.error().message);

@@ -534,6 +534,8 @@ int run(const Options& o) {
   if (!applyMaterialOverrides("compare", o.material, overrides)) return kExitUsage;
   somm::LoadOptions lo;
   lo.blendAsMask = o.material.blendAsMask;
+  lo.loadColor = false;      // compare bakes: the alpha
+  lo.loadPositions = false;  // and the UVs are all it reads
   if (!applyLimits("compare", o.limits, lo.limits)) return kExitUsage;
   somm::Scene scene;
   if (o.scene.rfind("procedural:leaf-cards", 0) == 0 && o.scenes.size() == 1) {

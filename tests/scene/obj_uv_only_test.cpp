@@ -1,0 +1,210 @@
+// SPDX-License-Identifier: MIT
+// The UV-only OBJ load (LoadOptions::loadPositions = false: tinyobjloader's callback parser, or the full load when
+// the file is irregular) against the full load as the oracle: the same geometries (names, materials, vertex
+// numbering, UVs, triangles), materials, textures, warnings, input files and instances, or the same error — on
+// a corpus of small files that exercise shape splitting, materials, index forms and every irregular case, on the
+// bundled OBJ and on the real scenes in ../shared/assets/foliage when present.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "scene/loaders.h"
+#include "scene_test_util.h"
+#include "somm/scene.h"
+
+namespace {
+
+using scenetest::TempDir;
+using scenetest::writeFile;
+
+// Bitwise equality of two float arrays (NaN payloads included).
+bool sameBits(const std::vector<float>& a, const std::vector<float>& b) {
+  return a.size() == b.size() &&
+         (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0);
+}
+
+bool sameTexture(const std::shared_ptr<const somm::AlphaTexture>& a,
+                 const std::shared_ptr<const somm::AlphaTexture>& b) {
+  if (!a || !b) return !a && !b;
+  return a->width == b->width && a->height == b->height && a->values() == b->values();
+}
+
+// Loads `path` both ways and expects the same outcome; returns the full load's geometry count (-1: an error).
+int expectSameLoad(const std::string& path) {
+  SCOPED_TRACE(path);
+  somm::LoadOptions full, uv;
+  uv.loadPositions = false;
+  const somm::Result<somm::Scene> a = somm::loadScene(path, full);
+  const somm::Result<somm::Scene> b = somm::loadScene(path, uv);
+  EXPECT_EQ(a.ok(), b.ok());
+  if (!a.ok() || !b.ok()) {
+    if (!a.ok() && !b.ok()) {
+      EXPECT_EQ(a.error().message, b.error().message);
+    }
+    return -1;
+  }
+  EXPECT_EQ(a->warnings, b->warnings);
+  EXPECT_EQ(a->inputFiles, b->inputFiles);
+  EXPECT_EQ(a->sourcePath, b->sourcePath);
+  EXPECT_EQ(a->geometries.size(), b->geometries.size());
+  for (size_t g = 0; g < std::min(a->geometries.size(), b->geometries.size()); ++g) {
+    const somm::Geometry &x = a->geometries[g], &y = b->geometries[g];
+    EXPECT_EQ(x.name, y.name) << g;
+    EXPECT_EQ(x.material, y.material) << g;
+    EXPECT_TRUE(sameBits(x.uvs, y.uvs)) << g;
+    EXPECT_EQ(x.indices, y.indices) << g;
+    EXPECT_EQ(x.positions.size(), x.uvs.size() / 2 * 3) << g;
+    EXPECT_TRUE(y.positions.empty()) << g;
+  }
+  EXPECT_EQ(a->materials.size(), b->materials.size());
+  for (size_t m = 0; m < std::min(a->materials.size(), b->materials.size()); ++m) {
+    const somm::Material &x = a->materials[m], &y = b->materials[m];
+    EXPECT_EQ(x.name, y.name) << m;
+    EXPECT_EQ(x.alphaMode, y.alphaMode) << m;
+    EXPECT_EQ(x.alphaCutoff, y.alphaCutoff) << m;
+    EXPECT_EQ(x.alphaSource, y.alphaSource) << m;
+    EXPECT_EQ(x.sampler.wrapS, y.sampler.wrapS) << m;
+    EXPECT_EQ(x.sampler.wrapT, y.sampler.wrapT) << m;
+    EXPECT_EQ(x.sampler.filter, y.sampler.filter) << m;
+    EXPECT_EQ(x.baseColorFactor, y.baseColorFactor) << m;
+    EXPECT_TRUE(sameTexture(x.alpha, y.alpha)) << m;
+    EXPECT_EQ(bool(x.baseColor), bool(y.baseColor)) << m;
+  }
+  EXPECT_EQ(a->instances.size(), b->instances.size());
+  return int(a->geometries.size());
+}
+
+const char* kMtl =
+    "newmtl leaf\nKd 1 1 1\nmap_Kd leaf.png\n"
+    "newmtl bark\nKd 0.5 0.4 0.3\n"
+    "newmtl leaf\nKd 0 0 0\n";  // a second definition of a name: the first one is used
+
+struct Case {
+  const char* name;
+  std::string text;
+  bool regular = true;  // the callback parse serves it (else the full load does)
+};
+
+std::vector<Case> corpus() {
+  const std::string v =
+      "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 2 0\n"
+      "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvt 0.25 0.75 0.5\nvn 0 0 1\n";
+  return {
+      {"plain", v + "usemtl leaf\nf 1/1 2/2 3/3\nf 1/1 3/3 4/4\n"},
+      {"polygon fan", v + "usemtl leaf\nf 1/1 2/2 3/3 4/4 5/5\n"},
+      {"index forms", v + "usemtl leaf\nf 1 2 3\nf 1/1/1 2/2/1 3/3/1\nf 1//1 2//1 4//1\nf 1/5 2 3/3\n"},
+      {"negative indices",
+       v + "usemtl leaf\nf -5/-5 -4/-4 -3/-3\nv 3 3 3\nvt 0.5 0.5\nf -1/-1 -2/-2 -3/-3\n"},
+      {"default material first", v + "f 1/1 2/2 3/3\nusemtl leaf\nf 1/1 3/3 4/4\nusemtl bark\nf 1 2 3\n"},
+      {"materials back and forth",
+       v + "usemtl leaf\nf 1/1 2/2 3/3\nusemtl bark\nf 1 2 4\nusemtl leaf\nf 2/2 3/3 4/4\nusemtl leaf\n"
+           "f 1/1 2/2 4/4\n"},
+      {"groups and objects",
+       v + "g a\nusemtl leaf\nf 1/1 2/2 3/3\ng a\nf 1/1 3/3 4/4\no obj one\nf 1 2 3\ng\t b  c \nusemtl bark\n"
+           "f 1 2 3\no empty\no\tnext  \nf 2 3 4\n"},
+      {"shapes without faces", v + "g a\ng b\no c\nusemtl leaf\ng d\nf 1/1 2/2 3/3\ng e\n"},
+      {"unnamed shapes after named ones", v + "usemtl leaf\nf 1 2 3\ng a\nf 1 2 3\no \nf 1 2 4\n"},
+      {"crlf and tabs",
+       "mtllib m.mtl\r\nv 0 0 0\r\nv 1 0 0\r\nv 1 1 0\r\nvt 0 0\r\nvt 1 0\r\nvt 1 1\r\n"
+       "usemtl leaf\r\n\tf\t1/1  2/2\t3/3 \r\n# comment\r\n\r\ns 1\r\nf 1/1 2/2 3/3\r\n"},
+      {"usemtl trailing space", v + "usemtl leaf \nf 1/1 2/2 3/3\nusemtl  bark\t\nf 1 2 3\n"},
+      {"non-finite positions and uvs",
+       v + "v nan 0 inf\nvt nan 0\nusemtl leaf\nf 6/6 2/2 3/3\nf 1/6 6/2 3/1\n"},
+      {"no final newline", v + "usemtl leaf\nf 1/1 2/2 3/3"},
+      // Irregular: the full load decides (warnings, errors, elements the callback parser reads differently).
+      {"unknown material", v + "usemtl nothere\nf 1/1 2/2 3/3\n", false},
+      {"degenerate face", v + "usemtl leaf\nf 1/1 2/2\nf 1/1 2/2 3/3\n", false},
+      {"empty face", v + "usemtl leaf\nf \nf 1/1 2/2 3/3\n", false},
+      {"lines and points", v + "usemtl leaf\nl 1 2\np 3\nf 1/1 2/2 3/3\no x\nl 1 2\no y\nf 1 2 3\n", false},
+      {"skin weights", v + "vw 1 0 0.5\nusemtl leaf\nf 1/1 2/2 3/3\n", false},
+      {"negative joint", v + "vw 1 -1 0.5\nf 1 2 3\n", false},
+      {"four fields", v + "f 1/1/1/1 2 3\n", false},
+      {"vw-like names", v + "vwx 1\nv 1 2 3\nusemtl leaf\nf 1/1 2/2 3/3\n"},
+      {"usemtl glued", v + "usemtlleaf\nf 1/1 2/2 3/3\n", false},
+      {"usemtl alone", v + "usemtl\nf 1/1 2/2 3/3\n", false},
+      {"zero index", v + "f 0 1 2\n", false},
+      {"zero texcoord", v + "f 1/0 2/1 3/2\n", false},
+      {"zero normal", v + "f 1//0 2//1 3//1\n", false},
+      {"junk in face", v + "f 1 2 3 # tri\n", false},
+      {"plus sign", v + "f +1 2 3\n", false},
+      {"trailing slash", v + "f 1/ 2/ 3/\n", false},
+      {"cr inside face", v + "f \r1 2 3\n", false},
+      {"vertex out of range", v + "f 1 2 9\n", false},
+      {"texcoord out of range", v + "f 1/9 2/1 3/1\n", false},
+      {"normal out of range", v + "f 1//7 2//1 3//1\n", false},
+      {"relative out of range", v + "f -9 1 2\n", false},
+      {"forward reference", "mtllib m.mtl\nf 1 2 3\nv 0 0 0\nv 1 0 0\nv 1 1 0\n", false},
+      {"index overflow", v + "f 1 2 2147483648\n", false},
+      {"empty group name", v + "g \nusemtl leaf\nf 1/1 2/2 3/3\n", false},
+      {"bare g (not a group line)", v + "g\nusemtl leaf\nf 1/1 2/2 3/3\n"},
+      {"missing mtllib", "mtllib none.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\n", false},
+      {"empty", ""},
+  };
+}
+
+TEST(ObjUvOnly, SameAsFullLoadOnCorpus) {
+  TempDir dir;
+  // A 2×2 RGBA leaf texture with alpha, shared by the materials that name it.
+  scenetest::writePng8(dir.file("leaf.png"), 2, 2, 4,
+                       {255, 0, 0, 255, 0, 255, 0, 0, 0, 0, 255, 128, 9, 9, 9, 64});
+  writeFile(dir.file("m.mtl"), kMtl);
+  int loaded = 0, failed = 0;
+  for (const Case& c : corpus()) {
+    SCOPED_TRACE(c.name);
+    const std::string path = dir.file("c.obj");
+    writeFile(path, c.text);
+    (expectSameLoad(path) < 0 ? failed : loaded) += 1;
+    bool irregular = false;
+    uint64_t nonFinite = 0;
+    (void)somm::detail::loadObjUvOnly(path, somm::LoadOptions{}, irregular, nonFinite);
+    EXPECT_EQ(irregular, !c.regular);
+  }
+  // The corpus holds both kinds (a guard against a corpus that only errors).
+  EXPECT_GE(loaded, 20);
+  EXPECT_GE(failed, 8);
+}
+
+// The non-finite check of loadScene counts the positions a UV-only load does not keep.
+TEST(ObjUvOnly, NonFinitePositionsStillWarn) {
+  TempDir dir;
+  // tinyobjloader reads "nan" as 0; an exponent out of range is infinite.
+  writeFile(dir.file("n.obj"), "v 1e999 0 0\nv 1 -1e999 0\nv 1 1 0\nvt 0 0\nf 1/1 2/1 3/1\nf 1 2 3\n");
+  somm::LoadOptions uv;
+  uv.loadPositions = false;
+  auto r = somm::loadScene(dir.file("n.obj"), uv);
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  ASSERT_EQ(r->warnings.size(), 1u);
+  // 6 vertices ((v, vt) pairs), 2 of which carry one non-finite component each twice over.
+  EXPECT_EQ(r->warnings[0], "4 non-finite position and 0 non-finite texture coordinate components (NaN/inf)");
+  ASSERT_EQ(r->geometries.size(), 1u);
+  EXPECT_EQ(r->geometries[0].indices, (std::vector<uint32_t>{0, 1, 2, 3, 4, 5}));
+  EXPECT_TRUE(r->geometries[0].positions.empty());
+}
+
+TEST(ObjUvOnly, SameAsFullLoadOnBundledScene) {
+  EXPECT_GT(expectSameLoad(std::string(SOMM_DATA_DIR) + "/redeclipse-tree01/tree01.obj"), 0);
+}
+
+TEST(ObjUvOnly, SameAsFullLoadOnRealScenes) {
+  const char* env = std::getenv("SOMM_FOLIAGE_DIR");
+  const std::string dir = env && *env ? env : SOMM_FOLIAGE_DIR;
+  if (dir.empty() || !std::filesystem::exists(dir + "/torcs-forza/forza.obj"))
+    GTEST_SKIP() << "no ../shared/assets/foliage (set SOMM_FOLIAGE_DIR)";
+  std::vector<std::string> files = {dir + "/torcs-forza/forza.obj", dir + "/zeroad/flora-quarter.obj"};
+  for (const auto& e : std::filesystem::directory_iterator(dir + "/redeclipse/obj"))
+    if (e.path().extension() == ".obj") files.push_back(e.path().string());
+  for (const std::string& f : files) {
+    EXPECT_GT(expectSameLoad(f), 0) << f;
+    bool irregular = false;
+    uint64_t nonFinite = 0;
+    EXPECT_TRUE(somm::detail::loadObjUvOnly(f, somm::LoadOptions{}, irregular, nonFinite).ok()) << f;
+    EXPECT_FALSE(irregular) << f;  // real files take the UV-only parse
+  }
+}
+
+}  // namespace

@@ -37,11 +37,11 @@ namespace {
 // runs on the bytes as they stream to the parser (IndexScan::feed per chunk), so what is parsed is what was checked.
 //
 // With `strict` (the UV-only load, loadObjUvOnly) it also tells, in irregular(), whether the file uses anything
-// that tinyobjloader's callback parser reads differently from LoadObj: line (l) or point (p) elements, a line
-// starting with "usemtl" not followed by a space or tab, or a face (f) line that is not 1+ tokens of the strict
-// forms v, v/t, v//n, v/t/n (each an optional '-' and digits, value not 0) separated by spaces, tabs or CRs,
-// or skin weight (vw) lines (the callback parser skips them; LoadObj parses them and may fail). On such files the
-// caller loads the full way instead.
+// that tinyobjloader's callback parser reads differently from LoadObj: line (l) or point (p) elements, skin
+// weight (vw) lines, a line starting with "usemtl" not followed by a space or tab, or a face (f) line that is not
+// 1+ tokens of the strict forms v, v/t, v//n, v/t/n (each an optional '-' and digits, value not 0) separated by
+// spaces or tabs. On such files the caller loads the full way instead. Lines end at LF, CR or CR LF, as the parsers
+// read them (line() counts LFs).
 class IndexScan {
  public:
   explicit IndexScan(bool strict = false) : strict_(strict) {}
@@ -53,7 +53,7 @@ class IndexScan {
         case kLead:
           if (c == '\n') {
             ++line_;
-          } else if (c != ' ' && c != '\t') {
+          } else if (c != ' ' && c != '\t' && c != '\r') {
             phase_ = (c == 'f' || c == 'l' || c == 'p') ? kCandidate : kSkip;
             lead_ = c;
             word_ = strict_ && c == 'u' ? 1u : 0u;
@@ -61,8 +61,8 @@ class IndexScan {
           }
           break;
         case kCandidate:
-          if (c == '\n') {
-            ++line_;
+          if (c == '\n' || c == '\r') {
+            line_ += c == '\n';
             phase_ = kLead;
           } else if (c == ' ' || c == '\t') {
             phase_ = kFace;
@@ -97,7 +97,7 @@ class IndexScan {
                   break;
                 }
               }
-              if (d == '\n') break;
+              if (d == '\n' || d == '\r') break;
             }
           }
           face_ = f;
@@ -106,7 +106,7 @@ class IndexScan {
           value_ = value;
           tokenLength_ = length;
           if (!ok) return false;
-          if (j < n) ++line_, phase_ = kLead;  // stopped at the newline
+          if (j < n) line_ += p[j] == '\n', phase_ = kLead;  // stopped at the line's end
           i = j;
           break;
         }
@@ -116,13 +116,20 @@ class IndexScan {
             if (vw_ == 2 && (c == ' ' || c == '\t')) irregular_ = true;
             vw_ = vw_ == 1 && c == 'w' ? 2u : 0u;
           }
-          if (c == '\n') {
-            ++line_, phase_ = kLead;
-          } else if (word_ == 0 && vw_ == 0) {  // nothing more to check on this line: on to its end
-            const void* nl = std::memchr(p + i + 1, '\n', n - i - 1);
-            if (!nl) return true;
-            i = size_t(static_cast<const char*>(nl) - p);
-            ++line_, phase_ = kLead;
+          if (c == '\n' || c == '\r') {
+            line_ += c == '\n';
+            phase_ = kLead;
+          } else if (word_ == 0 &&
+                     vw_ == 0) {  // nothing more to check on this line: on to its end (LF or CR)
+            const char* nl = static_cast<const char*>(std::memchr(p + i + 1, '\n', n - i - 1));
+            const char* end = nl ? nl : p + n;
+            const char* cr =
+                static_cast<const char*>(std::memchr(p + i + 1, '\r', size_t(end - (p + i + 1))));
+            if (cr) end = cr;
+            if (end == p + n) return true;
+            i = size_t(end - p);
+            line_ += *end == '\n';
+            phase_ = kLead;
           }
           break;
       }
@@ -147,7 +154,7 @@ class IndexScan {
   // The strict check of an f line: the token and field being read.
   struct FaceState {
     uint32_t field = 0, fieldChars = 0, tokens = 0, slashes = 0;
-    bool inToken = false, sign = false, nonzero = false, cr = false, irregular = false;
+    bool inToken = false, sign = false, nonzero = false, irregular = false;
   };
   bool finishNumber() {
     if (!inNumber_) return true;
@@ -166,16 +173,14 @@ class IndexScan {
   }
   // One character of an f line's body (after "f "), strict forms only.
   static void strictFace(FaceState& f, char c) {
-    if (f.cr && c != '\n')
-      f.irregular = true;  // a CR inside the line (LoadObj and the callback parser differ)
-    f.cr = c == '\r';
-    if (c == ' ' || c == '\t' || c == '\r' || c == '\n') {
+    const bool end = c == '\n' || c == '\r';  // the parsers end a line at LF, CR or CR LF
+    if (c == ' ' || c == '\t' || end) {
       if (f.inToken) {
         endField(f, false);
         f.inToken = false;
         ++f.tokens;
       }
-      if (c == '\n' && f.tokens == 0) f.irregular = true;  // a face without indices
+      if (end && f.tokens == 0) f.irregular = true;  // a face without indices
       return;
     }
     if (!f.inToken)

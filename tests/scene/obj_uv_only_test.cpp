@@ -115,6 +115,9 @@ std::vector<Case> corpus() {
       {"usemtl trailing space", v + "usemtl leaf \nf 1/1 2/2 3/3\nusemtl  bark\t\nf 1 2 3\n"},
       {"non-finite positions and uvs",
        v + "v nan 0 inf\nvt nan 0\nusemtl leaf\nf 6/6 2/2 3/3\nf 1/6 6/2 3/1\n"},
+      {"cr line ends",
+       "mtllib m.mtl\rv 0 0 0\rv 1 0 0\rv 1 1 0\rvt 0 0\rvt 1 0\rvt 1 1\rusemtl leaf\r"
+       "f 1/1 2/2 3/3\rg x\rf 1 2 3"},
       {"no final newline", v + "usemtl leaf\nf 1/1 2/2 3/3"},
       // Irregular: the full load decides (warnings, errors, elements the callback parser reads differently).
       {"unknown material", v + "usemtl nothere\nf 1/1 2/2 3/3\n", false},
@@ -133,7 +136,8 @@ std::vector<Case> corpus() {
       {"junk in face", v + "f 1 2 3 # tri\n", false},
       {"plus sign", v + "f +1 2 3\n", false},
       {"trailing slash", v + "f 1/ 2/ 3/\n", false},
-      {"cr inside face", v + "f \r1 2 3\n", false},
+      {"cr ends a face line", v + "f \r1 2 3\n", false},
+      {"cr then a line element", v + "vt 0 0\rl 1 2\nusemtl leaf\nf 1/1 2/2 3/3\n", false},
       {"vertex out of range", v + "f 1 2 9\n", false},
       {"texcoord out of range", v + "f 1/9 2/1 3/1\n", false},
       {"normal out of range", v + "f 1//7 2//1 3//1\n", false},
@@ -204,6 +208,24 @@ TEST(ObjUvOnly, SameAsFullLoadOnRealScenes) {
     uint64_t nonFinite = 0;
     EXPECT_TRUE(somm::detail::loadObjUvOnly(f, somm::LoadOptions{}, irregular, nonFinite).ok()) << f;
     EXPECT_FALSE(irregular) << f;  // real files take the UV-only parse
+  }
+}
+
+}  // namespace
+
+namespace {
+
+// Lines end at CR as well as LF for tinyobjloader: a face line after a lone CR is still checked for indices above
+// 2^31 - 1 (which the parser would overflow), on both load paths.
+TEST(ObjUvOnly, IndexOverflowAfterCrLineEnd) {
+  TempDir dir;
+  writeFile(dir.file("cr.obj"), "v 0 0 0\nv 1 0 0\nv 1 1 0\ns 1\rf 1 2 2147483648\n");
+  for (bool positions : {true, false}) {
+    somm::LoadOptions o;
+    o.loadPositions = positions;
+    auto r = somm::loadScene(dir.file("cr.obj"), o);
+    ASSERT_FALSE(r.ok());
+    EXPECT_NE(r.error().message.find("index 2147483648 is out of range"), std::string::npos) << r.error().message;
   }
 }
 

@@ -233,3 +233,13 @@ TEST(ObjUvOnly, IndexOverflowAfterCrLineEnd) {
 }
 
 }  // namespace
+
+namespace {
+
+// glTF without positions: the POSITION accessor is read (and counted) but not stored; the rest is the full load.
+TEST(ObjUvOnly, GltfSameAsFullLoadWithoutPositions) {
+  for (const char* rel : {"/oak-tree/oaktree.gltf", "/alpha-blend-mode-test/AlphaBlendModeTest.gltf"})
+    EXPECT_GT(expectSameLoad(std::string(SOMM_DATA_DIR) + rel), 0) << rel;
+}
+
+}  // namespace

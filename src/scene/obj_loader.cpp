@@ -356,6 +356,29 @@ Result<std::shared_ptr<const LoadedTexture>> loadTexture(const std::string& path
   return std::shared_ptr<const LoadedTexture>(std::move(t));
 }
 
+// A vertex's UV (u, v at uv; none: 0, 0) appended to a geometry's UVs.
+void appendUv(std::vector<float>& uvs, const float* uv) {
+  if (uv) {
+    uvs.insert(uvs.end(), {uv[0], uv[1]});
+  } else {
+    uvs.insert(uvs.end(), {0.0f, 0.0f});
+  }
+}
+
+// Corner k (vertex li) of a polygon, fanned into triangles (v0, vk-1, vk) for k >= 2; local holds v0 and the
+// previous corner.
+void fanCorner(uint32_t k, uint32_t li, uint32_t local[3], std::vector<uint32_t>& indices) {
+  if (k == 0) {
+    local[0] = li;
+  } else if (k == 1) {
+    local[1] = li;
+  } else {
+    local[2] = li;
+    indices.insert(indices.end(), {local[0], local[1], local[2]});
+    local[1] = li;
+  }
+}
+
 class ObjLoader {
  public:
   ObjLoader(std::string path, const LoadOptions& opts) : path_(std::move(path)), opts_(opts) {}
@@ -640,23 +663,10 @@ Result<Scene> ObjLoader::run() {
           const size_t v = size_t(ix.vertex_index);
           g.positions.insert(g.positions.end(), {attrib.vertices[3 * v], attrib.vertices[3 * v + 1],
                                                  attrib.vertices[3 * v + 2]});
-          if (ix.texcoord_index >= 0) {
-            const size_t t = size_t(ix.texcoord_index);
-            g.uvs.insert(g.uvs.end(), {attrib.texcoords[2 * t], attrib.texcoords[2 * t + 1]});
-          } else {
-            g.uvs.insert(g.uvs.end(), {0.0f, 0.0f});
-          }
+          appendUv(g.uvs,
+                   ix.texcoord_index >= 0 ? &attrib.texcoords[2 * size_t(ix.texcoord_index)] : nullptr);
         }
-        const uint32_t li = vit->second;
-        if (k == 0) {
-          local[0] = li;
-        } else if (k == 1) {
-          local[1] = li;
-        } else {
-          local[2] = li;
-          g.indices.insert(g.indices.end(), {local[0], local[1], local[2]});
-          local[1] = li;
-        }
+        fanCorner(uint32_t(k), vit->second, local, g.indices);
       }
       offset += n;
     }
@@ -786,22 +796,9 @@ struct UvParse {
       auto [vit, inserted] = map.emplace(vkey, uint32_t(g.uvs.size() / 2));
       if (inserted) {
         nonFinite += badV[size_t(v)];
-        if (t >= 0) {
-          g.uvs.insert(g.uvs.end(), {vt[2 * size_t(t)], vt[2 * size_t(t) + 1]});
-        } else {
-          g.uvs.insert(g.uvs.end(), {0.0f, 0.0f});
-        }
+        appendUv(g.uvs, t >= 0 ? &vt[2 * size_t(t)] : nullptr);
       }
-      const uint32_t li = vit->second;
-      if (k == 0) {
-        local[0] = li;
-      } else if (k == 1) {
-        local[1] = li;
-      } else {
-        local[2] = li;
-        g.indices.insert(g.indices.end(), {local[0], local[1], local[2]});
-        local[1] = li;
-      }
+      fanCorner(uint32_t(k), vit->second, local, g.indices);
     }
     shapeHasFaces = true;
   }

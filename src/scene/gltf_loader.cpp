@@ -274,8 +274,8 @@ class GltfLoader {
 
   std::string path_;
   LoadOptions opts_;
-  uint64_t droppedNonFinite_ =
-      0;  // non-finite position components not kept (LoadOptions::loadPositions false)
+  // Non-finite position components read but not kept (LoadOptions::loadPositions false).
+  uint64_t droppedNonFinite_ = 0;
   tinygltf::Model model_;
   Scene scene_;
   std::vector<MatInfo> matInfo_;

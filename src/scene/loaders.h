@@ -13,7 +13,7 @@ namespace somm::detail {
 Result<Scene> loadGltf(const std::string& path, bool binary, const LoadOptions& options,
                        uint64_t& nonFinitePositions);
 // `nonFinitePositions`: with options.loadPositions false, the non-finite components of the positions that were
-// not kept (0 otherwise).
+// not kept (0 otherwise). Without positions a loader may still return them (loadScene drops them).
 Result<Scene> loadObj(const std::string& path, const LoadOptions& options, uint64_t& nonFinitePositions);
 // The UV-only parse alone (what loadObj tries first without positions): `irregular` set when the file needs the
 // full load instead (the result is then an error to ignore).

@@ -151,9 +151,9 @@ class IndexScan {
 
  private:
   enum Phase { kLead, kCandidate, kFace, kSkip };
-  // The strict check of an f line: the token and field being read.
+  // The strict check of an f line: the token being read and its field (number `slashes`: v, t, n).
   struct FaceState {
-    uint32_t field = 0, fieldChars = 0, tokens = 0, slashes = 0;
+    uint32_t fieldChars = 0, tokens = 0, slashes = 0;
     bool inToken = false, sign = false, nonzero = false, irregular = false;
   };
   bool finishNumber() {
@@ -183,13 +183,12 @@ class IndexScan {
       if (end && f.tokens == 0) f.irregular = true;  // a face without indices
       return;
     }
-    if (!f.inToken)
-      f.inToken = true, f.field = 0, f.fieldChars = 0, f.sign = false, f.nonzero = false, f.slashes = 0;
+    if (!f.inToken) f.inToken = true, f.fieldChars = 0, f.sign = false, f.nonzero = false, f.slashes = 0;
     if (c == '/') {
       endField(f, true);
       ++f.slashes;
       if (f.slashes > 2) f.irregular = true;
-      f.field = f.slashes, f.fieldChars = 0, f.sign = false, f.nonzero = false;
+      f.fieldChars = 0, f.sign = false, f.nonzero = false;
     } else if (c == '-' && f.fieldChars == 0 && !f.sign) {
       f.sign = true;
     } else if (c >= '0' && c <= '9') {
@@ -202,7 +201,7 @@ class IndexScan {
   // The field that ends here (`slash`: a '/' follows): empty only as the middle field of v//n.
   static void endField(FaceState& f, bool slash) {
     if (f.fieldChars == 0) {
-      if (f.sign || !(f.field == 1 && slash)) f.irregular = true;
+      if (f.sign || !(f.slashes == 1 && slash)) f.irregular = true;
     } else if (!f.nonzero) {
       f.irregular = true;
     }
@@ -730,12 +729,16 @@ struct UvParse {
   std::string name;   // the name of the current shape (g or o)
   size_t shapes = 0;  // shapes LoadObj has pushed before the current one
   bool shapeHasFaces = false;
-  int defaultMaterial = -1;
   bool irregular = false;
   uint64_t nonFinite = 0;
-  // The current shape's geometries: material → geometry, and each one's (v, vt) → vertex map.
-  std::map<int, uint32_t> geometryOf;
-  std::unordered_map<uint32_t, std::unordered_map<uint64_t, uint32_t>> remap;
+  // Geometry::material of the geometries with the default material until the file's materials are all known.
+  static constexpr uint32_t kDefault = ~0u;
+  // The current shape's geometries by material: the geometry and its (v, vt) → vertex map.
+  struct Open {
+    uint32_t geometry = 0;
+    std::unordered_map<uint64_t, uint32_t> remap;
+  };
+  std::map<int, Open> geometryOf;
 
   void giveUp() {
     irregular = true;
@@ -745,15 +748,14 @@ struct UvParse {
   void endShape() {
     if (shapeHasFaces) {
       ++shapes;
-      for (const auto& [mat, gi] : geometryOf) {
-        Geometry& g = scene->geometries[gi];
+      for (const auto& [mat, open] : geometryOf) {
+        Geometry& g = scene->geometries[open.geometry];
         g.uvs.shrink_to_fit();
         g.indices.shrink_to_fit();
       }
     }
     shapeHasFaces = false;
     geometryOf.clear();
-    remap.clear();
   }
   // A raw index (non-zero: IndexScan's strict forms) resolved as LoadObj's fixIndex does against the `count`
   // elements read so far; -1 when it does not name one of them (LoadObj would warn or the loader fail).
@@ -766,24 +768,17 @@ struct UvParse {
     if (n < 3) return giveUp();  // LoadObj warns ("Degenerated face") and skips it
     int mat = material;
     if (mat >= int(mats.size())) mat = -1;
-    auto it = geometryOf.find(mat);
-    if (it == geometryOf.end()) {
+    auto [it, added] = geometryOf.try_emplace(mat);
+    if (added) {
       Geometry g;
-      if (mat < 0) {
-        if (defaultMaterial < 0) defaultMaterial = -2;  // numbered once the materials are known
-        g.material = 0;
-      } else {
-        g.material = uint32_t(mat);
-      }
+      g.material = mat < 0 ? kDefault : uint32_t(mat);
       const std::string shapeName = name.empty() ? "shape" + std::to_string(shapes) : name;
       g.name = shapeName + "/" + (mat < 0 ? std::string("default") : mats[size_t(mat)].name);
-      it = geometryOf.emplace(mat, uint32_t(scene->geometries.size())).first;
+      it->second.geometry = uint32_t(scene->geometries.size());
       scene->geometries.push_back(std::move(g));
-      defaultOf.push_back(mat < 0);
     }
-    const uint32_t gi = it->second;
-    Geometry& g = scene->geometries[gi];
-    auto& map = remap[gi];
+    Geometry& g = scene->geometries[it->second.geometry];
+    auto& map = it->second.remap;
     const uint64_t nv = badV.size(), nt = vt.size() / 2;
     uint32_t local[3] = {0, 0, 0};
     for (int k = 0; k < n; ++k) {
@@ -802,7 +797,6 @@ struct UvParse {
     }
     shapeHasFaces = true;
   }
-  std::vector<bool> defaultOf;  // per geometry: it has the default material
 };
 
 Result<Scene> ObjLoader::runUvOnly(bool& irregular, uint64_t& nonFinite) {
@@ -837,8 +831,9 @@ Result<Scene> ObjLoader::runUvOnly(bool& irregular, uint64_t& nonFinite) {
     const char* p = text + std::strspn(text, " \t");
     const std::string nm(p, std::strcspn(p, " \t\r"));
     const std::map<std::string, int>* map = u.mtl->materialMap;
-    if (!map || map->count(nm) == 0) return u.giveUp();  // LoadObj warns (material not found)
-    u.material = map->at(nm);
+    const auto it = map ? map->find(nm) : std::map<std::string, int>::const_iterator{};
+    if (!map || it == map->end()) return u.giveUp();  // LoadObj warns (material not found)
+    u.material = it->second;
   };
   cb.mtllib_cb = [](void* d, const tinyobj::material_t* m, int n) {
     auto& mats = static_cast<UvParse*>(d)->mats;
@@ -874,10 +869,10 @@ Result<Scene> ObjLoader::runUvOnly(bool& irregular, uint64_t& nonFinite) {
   scene_.inputFiles.insert(scene_.inputFiles.end(), mtl.read.begin(), mtl.read.end());
   std::vector<float>().swap(u.vt);
   std::vector<uint8_t>().swap(u.badV);
-  // The default material comes after the file's (as in run()).
-  const int defaultMaterial = u.defaultMaterial == -1 ? -1 : int(u.mats.size());
-  for (size_t gi = 0; gi < scene_.geometries.size(); ++gi)
-    if (u.defaultOf[gi]) scene_.geometries[gi].material = uint32_t(defaultMaterial);
+  // The default material, when used, comes after the file's (as in run()).
+  int defaultMaterial = -1;
+  for (Geometry& g : scene_.geometries)
+    if (g.material == UvParse::kDefault) g.material = uint32_t(defaultMaterial = int(u.mats.size()));
   nonFinite = u.nonFinite;
   return finish(u.mats, defaultMaterial, 0);
 }
@@ -900,13 +895,7 @@ Result<Scene> loadObj(const std::string& path, const LoadOptions& options, uint6
     nonFinitePositions = 0;
   }
   ObjLoader loader(path, options);
-  Result<Scene> r = loader.run();
-  if (r.ok() && !options.loadPositions)
-    for (Geometry& g : r->geometries) {
-      for (float v : g.positions) nonFinitePositions += !std::isfinite(v);
-      std::vector<float>().swap(g.positions);
-    }
-  return r;
+  return loader.run();  // with positions; loadScene counts and drops them when they are not wanted
 }
 
 }  // namespace somm::detail

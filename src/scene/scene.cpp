@@ -40,9 +40,11 @@ Result<Scene> loadScene(const std::string& path, const LoadOptions& options) {
   if (!r.ok()) return r;
   Scene& s = r.value();
   uint64_t badPos = droppedBadPos, badUv = 0;
-  for (const Geometry& g : s.geometries) {
+  for (Geometry& g : s.geometries) {
     for (float v : g.positions) badPos += !std::isfinite(v);
     for (float v : g.uvs) badUv += !std::isfinite(v);
+    // A loader that had to read them anyway (an irregular OBJ, docs/scene.md "UV-only loading"): counted, dropped.
+    if (!options.loadPositions) std::vector<float>().swap(g.positions);
   }
   if (badPos || badUv)
     s.warnings.push_back(std::to_string(badPos) + " non-finite position and " + std::to_string(badUv) +

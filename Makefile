@@ -10,7 +10,7 @@ CMAKE_GEN  := -G Ninja
 # Debian packages, per what needs them (docs/integration.md lists the same): every target installs only its own.
 PKGS_BASE  := cmake ninja-build g++ pkg-config
 PKGS_LIB   := libtbb-dev                                       # somm::somm (the baker's threads)
-PKGS_IO    := libtinygltf-dev libtinyobjloader-dev libstb-dev libxxhash-dev   # somm::io
+PKGS_IO    := libtinygltf-dev libtinyobjloader-dev libstb-dev libdeflate-dev libxxhash-dev   # somm::io
 PKGS_TRACE := libembree-dev                                    # somm::trace
 PKGS_CLI   := libcli11-dev nlohmann-json3-dev libzstd-dev liblzma-dev
 PKGS_TEST  := libgtest-dev libgmock-dev

@@ -4,7 +4,7 @@
 # find_package(somm) fail cleanly instead of erroring). Each macro is called only by the target that needs it, so a
 # configuration finds only the selected targets' dependencies.
 #   somm_find_tbb()      oneTBB         TBB::tbb                       the baker's threads (somm::somm)
-#   somm_find_io_deps()  tinygltf, tinyobjloader, stb, xxHash          somm::io
+#   somm_find_io_deps()  tinygltf, tinyobjloader, stb, libdeflate, xxHash  somm::io
 #   somm_find_embree()   Embree 3       embree                         somm::trace
 include_guard(GLOBAL)
 
@@ -46,6 +46,7 @@ macro(somm_find_io_deps)
   _somm_find(TinyGLTF)
   _somm_find(tinyobjloader)
   _somm_pkg(stb stb)
+  _somm_pkg(deflate libdeflate)
   _somm_pkg(xxhash libxxhash)
 endmacro()
 

@@ -1,12 +1,13 @@
 // SPDX-License-Identifier: MIT
 // Fuzz target: image decoding (stb_image through the scene loader's decodeImage: PNG, JPEG, TGA, BMP, ...)
-// and the conversions to alpha and colour textures. Decoded sizes must be consistent, alphas in [0, 1], and a
+// and the conversions to alpha and colour textures; the PNG fast path (libdeflate) must equal stb wherever it decodes. Decoded sizes must be consistent, alphas in [0, 1], and a
 // small input must not allocate a huge image (run with -malloc_limit_mb, see fuzz_image.options).
 #include <stb_image.h>
 
 #include <climits>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 
 #include "scene/image_io.h"
 #include "scene_fuzz_util.h"
@@ -21,6 +22,17 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (!jpeg && size <= size_t(INT32_MAX) && stbi_info_from_memory(data, int(size), &w, &h, &comp) &&
       uint64_t(w) * uint64_t(h) * uint64_t(comp) > (uint64_t(1) << 22))
     return 0;
+  // The PNG fast path against stb_image: whatever it decodes, stb decodes to the same bytes (where it declines,
+  // decodeImage uses stb itself).
+  if (detail::RawImage fast; size <= size_t(INT32_MAX) && detail::decodePngFast(data, size, fast)) {
+    int sw = 0, sh = 0, sc = 0;
+    stbi_uc* p = stbi_load_from_memory(data, int(size), &sw, &sh, &sc, 0);
+    if (!p) fuzz::fail("fuzz_image", "PNG fast path decoded what stb rejects");
+    const bool same = uint32_t(sw) == fast.width && uint32_t(sh) == fast.height &&
+                      uint32_t(sc) == fast.channels && std::memcmp(p, fast.px8(), fast.sampleCount()) == 0;
+    stbi_image_free(p);
+    if (!same) fuzz::fail("fuzz_image", "PNG fast path differs from stb");
+  }
   const Result<detail::RawImage> r = detail::decodeImage(data, size);
   if (!r.ok()) {
     if (r.error().message.find('\n') != std::string::npos) fuzz::fail("fuzz_image", "multi-line error");

@@ -183,6 +183,10 @@ Result<RawImage> decodeImage(const uint8_t* data, size_t size, const Limits& lim
                            limitHint("decoded-bytes", limits.decodedImageBytes));
     *decodedBytes += cost;
   }
+  if (RawImage fast; decodePngFast(data, size, fast)) {
+    if (fast.width == uint32_t(w) && fast.height == uint32_t(h) && fast.channels == uint32_t(comp))
+      return fast;
+  }
   std::vector<uint8_t> padded = padPalette(data, size);
   if (!padded.empty()) {
     if (padded.size() > size_t(INT_MAX))

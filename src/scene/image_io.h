@@ -43,6 +43,17 @@ Result<RawImage> decodeImage(const uint8_t* data, size_t size, const Limits& lim
 Result<RawImage> readImageFile(const std::string& path, const Limits& limits = defaultLimits(),
                                uint64_t* decodedBytes = nullptr);
 
+// The common PNG subset — 8-bit grey, grey+alpha, RGB or RGBA, not interlaced, without PLTE, tRNS, CgBI or unknown
+// critical chunks — decoded with libdeflate and an in-place unfilter (docs/scene.md "PNG fast path"). False, with
+// `out` untouched, for anything else and on any failure: the caller then decodes with stb_image, whose verdict
+// stands. When true, the samples are stb_image's (stbi_load_from_memory, 0 requested channels) byte for byte.
+// Does no limit checks of its own beyond stb's dimension bounds: decodeImage checks first.
+bool decodePngFast(const uint8_t* data, size_t size, RawImage& out);
+// PNG unfiltering of `height` rows of `width` pixels of `channels` bytes, each row preceded by its filter-type byte
+// (the inflated IDAT stream), in place; then the rows packed without their filter bytes. False on a filter type
+// above 4. simd: SSE2 for 4-byte pixels where available (the same bytes as without).
+bool pngUnfilter(uint8_t* buf, uint32_t width, uint32_t height, uint32_t channels, bool simd);
+
 // Which value of an image is the alpha.
 enum class AlphaChannel : uint8_t {
   AlphaOrOne,        // glTF: the alpha channel, 1 when the image has none

@@ -1,0 +1,105 @@
+// SPDX-License-Identifier: MIT
+// PNG decoding: the fast path (decodePngFast: libdeflate + in-place unfilter) against stb_image, the baseline, in the
+// same run, on the bundled textures and (when ../shared is present) every real foliage PNG. Each fast decode is
+// checked against stb's bytes once before timing.
+#include <benchmark/benchmark.h>
+#include <stb_image.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+#include "scene/image_io.h"
+
+namespace {
+
+using Bytes = std::vector<uint8_t>;
+
+std::vector<Bytes> pngFiles(const std::string& dir) {
+  std::vector<Bytes> files;
+  if (dir.empty() || !std::filesystem::is_directory(dir)) return files;
+  std::vector<std::string> paths;
+  for (const auto& e : std::filesystem::recursive_directory_iterator(dir))
+    if (e.path().extension() == ".png") paths.push_back(e.path().string());
+  std::sort(paths.begin(), paths.end());
+  for (const std::string& p : paths) {
+    std::ifstream f(p, std::ios::binary);
+    files.emplace_back(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+  }
+  return files;
+}
+
+// Decodes every file with both decoders `rounds` times, alternating; counters: seconds of each (best round), the
+// ratio, decoded MB, and how many files took the fast path (the others are stb's in both columns).
+void BM_DecodePng(benchmark::State& state, const char* which) {
+  std::string dir;
+  if (std::string(which) == "bundled") {
+    dir = SOMM_DATA_DIR;
+  } else {
+    const char* env = std::getenv("SOMM_FOLIAGE_DIR");
+    dir = env && *env ? env : SOMM_FOLIAGE_DIR;
+  }
+  const std::vector<Bytes> files = pngFiles(dir);
+  if (files.empty()) {
+    state.SkipWithError("no PNG files (../shared/assets/foliage absent?)");
+    return;
+  }
+  size_t fastFiles = 0, samples = 0;
+  for (const Bytes& f : files) {
+    somm::detail::RawImage img;
+    int w = 0, h = 0, c = 0;
+    stbi_uc* p = stbi_load_from_memory(f.data(), int(f.size()), &w, &h, &c, 0);
+    if (!p) continue;
+    samples += size_t(w) * h * c;
+    if (somm::detail::decodePngFast(f.data(), f.size(), img)) {
+      ++fastFiles;
+      if (img.sampleCount() != size_t(w) * h * c || std::memcmp(p, img.px8(), img.sampleCount()) != 0) {
+        stbi_image_free(p);
+        state.SkipWithError("fast path differs from stb");
+        return;
+      }
+    }
+    stbi_image_free(p);
+  }
+  double bestFast = 1e30, bestStb = 1e30;
+  for (auto _ : state) {
+    for (int round = 0; round < 3; ++round) {
+      const auto t0 = std::chrono::steady_clock::now();
+      for (const Bytes& f : files) {
+        int w = 0, h = 0, c = 0;
+        stbi_uc* p = stbi_load_from_memory(f.data(), int(f.size()), &w, &h, &c, 0);
+        benchmark::DoNotOptimize(p);
+        stbi_image_free(p);
+      }
+      const auto t1 = std::chrono::steady_clock::now();
+      for (const Bytes& f : files) {
+        somm::detail::RawImage img;
+        if (!somm::detail::decodePngFast(f.data(), f.size(), img)) {
+          int w = 0, h = 0, c = 0;  // outside the subset: stb, as decodeImage does
+          stbi_image_free(stbi_load_from_memory(f.data(), int(f.size()), &w, &h, &c, 0));
+        }
+        benchmark::DoNotOptimize(img.samples);
+      }
+      const auto t2 = std::chrono::steady_clock::now();
+      bestStb = std::min(bestStb, std::chrono::duration<double>(t1 - t0).count());
+      bestFast = std::min(bestFast, std::chrono::duration<double>(t2 - t1).count());
+    }
+  }
+  state.counters["files"] = double(files.size());
+  state.counters["fast_path_files"] = double(fastFiles);
+  state.counters["MB_decoded"] = double(samples) / 1e6;
+  state.counters["stb_s"] = bestStb;
+  state.counters["fast_s"] = bestFast;
+  state.counters["speedup_vs_stb"] = bestStb / bestFast;
+  state.SetLabel(std::string(which) + " PNGs");
+}
+
+BENCHMARK_CAPTURE(BM_DecodePng, bundled, "bundled")->Iterations(1)->Unit(benchmark::kSecond);
+BENCHMARK_CAPTURE(BM_DecodePng, foliage, "foliage")->Iterations(1)->Unit(benchmark::kSecond);
+
+}  // namespace

@@ -1,0 +1,242 @@
+// SPDX-License-Identifier: MIT
+// somm — the common PNG subset decoded fast: one libdeflate call for the zlib stream, rows unfiltered in place
+// (docs/scene.md "PNG fast path"). Anything else is left to stb_image.
+#include <libdeflate.h>
+
+#include <cstdlib>
+#include <cstring>
+#include <memory>
+#include <vector>
+
+#include "image_io.h"
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
+namespace somm::detail {
+
+namespace {
+
+uint32_t be32(const uint8_t* p) {
+  return uint32_t(p[0]) << 24 | uint32_t(p[1]) << 16 | uint32_t(p[2]) << 8 | p[3];
+}
+
+// The Paeth predictor (PNG spec 9.4): a left, b up, c up-left; ties prefer a, then b.
+inline uint8_t paeth(int a, int b, int c) {
+  const int pa = std::abs(b - c), pb = std::abs(a - c), pc = std::abs(a + b - 2 * c);
+  return uint8_t(pa <= pb && pa <= pc ? a : pb <= pc ? b : c);
+}
+
+// One row unfiltered in place: `row` holds the filtered bytes (rb of them, pixels of kBpp bytes), `prior` the
+// previous row unfiltered, or null for the first row (a row of zeros).
+template <int kBpp>
+void unfilterScalar(uint8_t* row, const uint8_t* prior, size_t rb, int filter) {
+  switch (filter) {
+    case 1:  // Sub
+      for (size_t x = kBpp; x < rb; ++x) row[x] = uint8_t(row[x] + row[x - kBpp]);
+      break;
+    case 2:  // Up
+      if (prior)
+        for (size_t x = 0; x < rb; ++x) row[x] = uint8_t(row[x] + prior[x]);
+      break;
+    case 3:  // Average
+      for (size_t x = 0; x < rb; ++x) {
+        const int a = x >= size_t(kBpp) ? row[x - kBpp] : 0, b = prior ? prior[x] : 0;
+        row[x] = uint8_t(row[x] + ((a + b) >> 1));
+      }
+      break;
+    case 4:  // Paeth
+      for (size_t x = 0; x < rb; ++x) {
+        const bool left = x >= size_t(kBpp);
+        const int a = left ? row[x - kBpp] : 0, b = prior ? prior[x] : 0,
+                  c = prior && left ? prior[x - kBpp] : 0;
+        row[x] = uint8_t(row[x] + paeth(a, b, c));
+      }
+      break;
+    default:  // None
+      break;
+  }
+}
+
+#if defined(__SSE2__)
+// 4-byte pixels (RGBA): Sub, Average and Paeth depend on the pixel to the left, so they run a pixel at a time with
+// its 4 samples in 16-bit lanes; Up 16 bytes at a time. The same bytes as unfilterScalar<4>.
+inline __m128i load4(const uint8_t* p) {
+  int v;
+  std::memcpy(&v, p, 4);
+  return _mm_unpacklo_epi8(_mm_cvtsi32_si128(v), _mm_setzero_si128());
+}
+inline void store4(uint8_t* p, __m128i v16) {
+  const int v = _mm_cvtsi128_si32(_mm_packus_epi16(v16, v16));
+  std::memcpy(p, &v, 4);
+}
+
+void unfilterRgbaSse2(uint8_t* row, const uint8_t* prior, size_t rb, int filter) {
+  const __m128i zero = _mm_setzero_si128(), low = _mm_set1_epi16(0xff), one = _mm_set1_epi16(1);
+  if (filter == 2 && prior) {
+    size_t x = 0;
+    for (; x + 16 <= rb; x += 16) {
+      const __m128i r = _mm_loadu_si128(reinterpret_cast<const __m128i*>(row + x));
+      const __m128i b = _mm_loadu_si128(reinterpret_cast<const __m128i*>(prior + x));
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(row + x), _mm_add_epi8(r, b));
+    }
+    for (; x < rb; ++x) row[x] = uint8_t(row[x] + prior[x]);
+    return;
+  }
+  if (filter < 1 || filter > 4 || (filter == 2 && !prior)) return;
+  __m128i a = zero, c = zero;
+  for (size_t x = 0; x < rb; x += 4) {
+    const __m128i r = load4(row + x);
+    __m128i v;
+    if (filter == 1) {
+      v = _mm_add_epi16(r, a);
+    } else if (filter == 3) {
+      const __m128i b = prior ? load4(prior + x) : zero;
+      v = _mm_add_epi16(r, _mm_srli_epi16(_mm_add_epi16(a, b), 1));
+    } else {
+      const __m128i b = prior ? load4(prior + x) : zero;
+      const __m128i p = _mm_sub_epi16(b, c), q = _mm_sub_epi16(a, c), s = _mm_add_epi16(p, q);
+      const __m128i pa = _mm_max_epi16(p, _mm_sub_epi16(zero, p)),
+                    pb = _mm_max_epi16(q, _mm_sub_epi16(zero, q)),
+                    pc = _mm_max_epi16(s, _mm_sub_epi16(zero, s));
+      // pa <= pb && pa <= pc: a; else pb <= pc: b; else c.
+      const __m128i useA = _mm_and_si128(_mm_cmplt_epi16(pa, _mm_add_epi16(pb, one)),
+                                         _mm_cmplt_epi16(pa, _mm_add_epi16(pc, one)));
+      const __m128i useB = _mm_cmplt_epi16(pb, _mm_add_epi16(pc, one));
+      const __m128i bc = _mm_or_si128(_mm_and_si128(useB, b), _mm_andnot_si128(useB, c));
+      v = _mm_add_epi16(r, _mm_or_si128(_mm_and_si128(useA, a), _mm_andnot_si128(useA, bc)));
+      c = b;
+    }
+    v = _mm_and_si128(v, low);
+    store4(row + x, v);
+    a = v;
+  }
+}
+#endif
+
+template <int kBpp>
+bool unfilterRows(uint8_t* buf, size_t rb, uint32_t h, bool simd) {
+  const uint8_t* prior = nullptr;
+  for (uint32_t y = 0; y < h; ++y) {
+    uint8_t* row = buf + size_t(y) * (rb + 1);
+    const int filter = row[0];
+    if (filter > 4) return false;
+#if defined(__SSE2__)
+    if (kBpp == 4 && simd) {
+      unfilterRgbaSse2(row + 1, prior, rb, filter);
+      prior = row + 1;
+      continue;
+    }
+#else
+    (void)simd;
+#endif
+    unfilterScalar<kBpp>(row + 1, prior, rb, filter);
+    prior = row + 1;
+  }
+  return true;
+}
+
+}  // namespace
+
+bool pngUnfilter(uint8_t* buf, uint32_t width, uint32_t height, uint32_t channels, bool simd) {
+  const size_t rb = size_t(width) * channels;
+  bool ok = false;
+  switch (channels) {
+    case 1:
+      ok = unfilterRows<1>(buf, rb, height, simd);
+      break;
+    case 2:
+      ok = unfilterRows<2>(buf, rb, height, simd);
+      break;
+    case 3:
+      ok = unfilterRows<3>(buf, rb, height, simd);
+      break;
+    case 4:
+      ok = unfilterRows<4>(buf, rb, height, simd);
+      break;
+    default:
+      return false;
+  }
+  if (!ok) return false;
+  // Rows packed: the filter bytes dropped (row y moves y + 1 bytes toward the start).
+  for (uint32_t y = 0; y < height; ++y)
+    std::memmove(buf + size_t(y) * rb, buf + size_t(y) * (rb + 1) + 1, rb);
+  return true;
+}
+
+bool decodePngFast(const uint8_t* data, size_t size, RawImage& out) {
+  static const uint8_t kSig[8] = {0x89, 'P', 'N', 'G', 0x0d, 0x0a, 0x1a, 0x0a};
+  if (size < 8 + 25 || std::memcmp(data, kSig, 8) != 0) return false;
+  // IHDR first, 13 bytes: 8-bit, grey (0) / RGB (2) / grey+alpha (4) / RGBA (6), methods 0, not interlaced.
+  if (be32(data + 8) != 13 || std::memcmp(data + 12, "IHDR", 4) != 0) return false;
+  const uint32_t w = be32(data + 16), h = be32(data + 20);
+  const uint8_t depth = data[24], colour = data[25];
+  if (depth != 8 || (colour != 0 && colour != 2 && colour != 4 && colour != 6) || data[26] != 0 ||
+      data[27] != 0 || data[28] != 0)
+    return false;
+  const uint32_t channels = (colour & 2 ? 3u : 1u) + (colour & 4 ? 1u : 0u);
+  // stb_image's own bounds (2^24 a side, 2^30 samples).
+  if (w == 0 || h == 0 || w > (1u << 24) || h > (1u << 24) ||
+      uint64_t(w) * h * channels > (uint64_t(1) << 30))
+    return false;
+  // The chunks up to IEND: IDAT data gathered; PLTE / tRNS (alpha or palette rules), CgBI (Apple's variant), a
+  // second IHDR and unknown critical chunks are left to stb.
+  const uint8_t* single = nullptr;
+  size_t singleLen = 0, idatCount = 0;
+  std::vector<uint8_t> joined;
+  bool ended = false;
+  for (size_t i = 8 + 25; size - i >= 12;) {
+    const uint64_t len = be32(data + i);
+    if (len + 12 > size - i) return false;
+    const uint8_t* type = data + i + 4;
+    if (std::memcmp(type, "IEND", 4) == 0) {
+      ended = true;
+      break;
+    }
+    if (std::memcmp(type, "IDAT", 4) == 0) {
+      if (len > 0) {
+        if (idatCount == 0) {
+          single = data + i + 8;
+          singleLen = size_t(len);
+        } else {
+          if (idatCount == 1) joined.assign(single, single + singleLen);
+          joined.insert(joined.end(), data + i + 8, data + i + 8 + len);
+        }
+        ++idatCount;
+      }
+    } else if ((type[0] & 0x20) == 0 ||  // critical: IHDR again, PLTE, or unknown
+               std::memcmp(type, "tRNS", 4) == 0 || std::memcmp(type, "CgBI", 4) == 0) {
+      return false;
+    }
+    i += size_t(len) + 12;
+  }
+  if (!ended || idatCount == 0) return false;
+  const uint8_t* z = idatCount == 1 ? single : joined.data();
+  const size_t zLen = idatCount == 1 ? singleLen : joined.size();
+  const size_t rb = size_t(w) * channels, rawLen = (rb + 1) * h;
+  std::unique_ptr<uint8_t, decltype(&std::free)> buf(static_cast<uint8_t*>(std::malloc(rawLen)), &std::free);
+  if (!buf) return false;
+  std::unique_ptr<libdeflate_decompressor, decltype(&libdeflate_free_decompressor)> d(
+      libdeflate_alloc_decompressor(), &libdeflate_free_decompressor);
+  if (!d) return false;
+  size_t inUsed = 0, produced = 0;
+  // Data after the zlib stream is ignored (as stb does); a stream that yields more than the image (stb accepts it)
+  // or less fails here and goes to stb.
+  if (libdeflate_zlib_decompress_ex(d.get(), z, zLen, buf.get(), rawLen, &inUsed, &produced) !=
+          LIBDEFLATE_SUCCESS ||
+      produced != rawLen)
+    return false;
+  joined = std::vector<uint8_t>();  // the compressed copy is not needed any more
+  if (!pngUnfilter(buf.get(), w, h, channels, true)) return false;
+  out = RawImage{};
+  out.width = w;
+  out.height = h;
+  out.channels = channels;
+  out.sixteenBit = false;
+  out.samples =
+      std::shared_ptr<const void>(buf.release(), [](const void* p) { std::free(const_cast<void*>(p)); });
+  return true;
+}
+
+}  // namespace somm::detail

@@ -1,0 +1,293 @@
+// SPDX-License-Identifier: MIT
+// The PNG fast path (decodePngFast, pngUnfilter) against stb_image as the oracle: generated PNGs of every colour type
+// it takes, every filter type and odd sizes, split and empty IDAT chunks; the inputs it must leave to stb; the bundled
+// textures and, when ../shared is present, every real PNG there.
+#include <gtest/gtest.h>
+#include <stb_image.h>
+
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "scene/image_io.h"
+
+extern "C" unsigned char* stbi_zlib_compress(unsigned char* data, int data_len, int* out_len, int quality);
+
+namespace {
+
+using Bytes = std::vector<uint8_t>;
+
+void put32(Bytes& b, uint32_t v) {
+  for (int s = 24; s >= 0; s -= 8) b.push_back(uint8_t(v >> s));
+}
+
+void chunk(Bytes& png, const char* type, const Bytes& data) {
+  put32(png, uint32_t(data.size()));
+  png.insert(png.end(), type, type + 4);
+  png.insert(png.end(), data.begin(), data.end());
+  put32(png, 0);  // CRC: neither decoder checks it
+}
+
+uint32_t adler32(const Bytes& d) {
+  uint32_t a = 1, b = 0;
+  for (uint8_t v : d) {
+    a = (a + v) % 65521;
+    b = (b + a) % 65521;
+  }
+  return b << 16 | a;
+}
+
+// A zlib stream of stored (uncompressed) blocks of at most `block` bytes each.
+Bytes zlibStored(const Bytes& raw, size_t block = 65535) {
+  Bytes z = {0x78, 0x01};
+  size_t i = 0;
+  do {
+    const size_t n = std::min(block, raw.size() - i);
+    z.push_back(i + n == raw.size() ? 1 : 0);
+    z.push_back(uint8_t(n));
+    z.push_back(uint8_t(n >> 8));
+    z.push_back(uint8_t(~n));
+    z.push_back(uint8_t(~n >> 8));
+    z.insert(z.end(), raw.begin() + long(i), raw.begin() + long(i + n));
+    i += n;
+  } while (i < raw.size());
+  put32(z, adler32(raw));
+  return z;
+}
+
+Bytes zlibStb(Bytes raw) {
+  int len = 0;
+  unsigned char* p = stbi_zlib_compress(raw.data(), int(raw.size()), &len, 8);
+  Bytes z(p, p + len);
+  std::free(p);
+  return z;
+}
+
+// Filters `pixels` (rows of w·ch bytes) with the given per-row filter types (PNG spec 9), forward.
+Bytes filterRows(const Bytes& pixels, uint32_t w, uint32_t h, uint32_t ch, const std::vector<int>& filters) {
+  const size_t rb = size_t(w) * ch;
+  Bytes out;
+  for (uint32_t y = 0; y < h; ++y) {
+    const int f = filters[y];
+    out.push_back(uint8_t(f));
+    for (size_t x = 0; x < rb; ++x) {
+      const int v = pixels[y * rb + x];
+      const int a = x >= ch ? pixels[y * rb + x - ch] : 0;
+      const int b = y > 0 ? pixels[(y - 1) * rb + x] : 0;
+      const int c = y > 0 && x >= ch ? pixels[(y - 1) * rb + x - ch] : 0;
+      int pred = 0;
+      if (f == 1) pred = a;
+      if (f == 2) pred = b;
+      if (f == 3) pred = (a + b) >> 1;
+      if (f == 4) {
+        const int p = a + b - c, pa = std::abs(p - a), pb = std::abs(p - b), pc = std::abs(p - c);
+        pred = pa <= pb && pa <= pc ? a : pb <= pc ? b : c;
+      }
+      out.push_back(uint8_t(v - pred));
+    }
+  }
+  return out;
+}
+
+Bytes ihdr(uint32_t w, uint32_t h, uint8_t depth, uint8_t colour, uint8_t interlace = 0) {
+  Bytes d;
+  put32(d, w);
+  put32(d, h);
+  d.insert(d.end(), {depth, colour, 0, 0, interlace});
+  return d;
+}
+
+// A PNG with the zlib stream z split into IDAT chunks of `split` bytes (an empty IDAT and a tEXt chunk among them).
+Bytes makePng(const Bytes& header, const Bytes& z, size_t split,
+              const std::vector<std::pair<std::string, Bytes>>& extra = {}) {
+  Bytes png = {0x89, 'P', 'N', 'G', 0x0d, 0x0a, 0x1a, 0x0a};
+  chunk(png, "IHDR", header);
+  for (const auto& [type, data] : extra) chunk(png, type.c_str(), data);
+  chunk(png, "tEXt", Bytes{'k', 0, 'v'});
+  for (size_t i = 0; i < z.size(); i += split) {
+    chunk(png, "IDAT", Bytes(z.begin() + long(i), z.begin() + long(std::min(z.size(), i + split))));
+    if (i == 0) chunk(png, "IDAT", {});
+  }
+  chunk(png, "IEND", {});
+  return png;
+}
+
+struct StbImage {
+  int w = 0, h = 0, c = 0;
+  Bytes px;
+  bool ok = false;
+};
+
+StbImage stbDecode(const Bytes& png) {
+  StbImage s;
+  unsigned char* p = stbi_load_from_memory(png.data(), int(png.size()), &s.w, &s.h, &s.c, 0);
+  if (!p) return s;
+  s.px.assign(p, p + size_t(s.w) * s.h * s.c);
+  stbi_image_free(p);
+  s.ok = true;
+  return s;
+}
+
+Bytes samples(const somm::detail::RawImage& img) {
+  return Bytes(img.px8(), img.px8() + img.sampleCount());
+}
+
+// decodePngFast decodes `png` and gives stb's bytes.
+void expectFastEqualsStb(const Bytes& png, const std::string& what) {
+  somm::detail::RawImage img;
+  ASSERT_TRUE(somm::detail::decodePngFast(png.data(), png.size(), img)) << what;
+  const StbImage s = stbDecode(png);
+  ASSERT_TRUE(s.ok) << what;
+  EXPECT_EQ(img.width, uint32_t(s.w)) << what;
+  EXPECT_EQ(img.height, uint32_t(s.h)) << what;
+  EXPECT_EQ(img.channels, uint32_t(s.c)) << what;
+  EXPECT_FALSE(img.sixteenBit) << what;
+  EXPECT_TRUE(samples(img) == s.px) << what;
+}
+
+Bytes readFile(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  return Bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+}
+
+TEST(PngFast, GeneratedImagesEqualStbAndTheSource) {
+  std::mt19937 rng(29);
+  int cases = 0;
+  for (uint8_t colour : {0, 2, 4, 6})
+    for (uint32_t w : {1u, 2u, 3u, 5u, 16u, 17u, 33u})
+      for (uint32_t h : {1u, 2u, 7u}) {
+        const uint32_t ch = (colour & 2 ? 3u : 1u) + (colour & 4 ? 1u : 0u);
+        Bytes pixels(size_t(w) * h * ch);
+        // Half random, half from 3 values (the Paeth predictor's ties occur).
+        for (size_t i = 0; i < pixels.size(); ++i) pixels[i] = uint8_t(cases % 2 ? rng() : (rng() % 3) * 127);
+        std::vector<int> filters(h);
+        for (uint32_t y = 0; y < h; ++y) filters[y] = int((y + w + colour) % 5);
+        const Bytes raw = filterRows(pixels, w, h, ch, filters);
+        for (int zk = 0; zk < 2; ++zk) {
+          const Bytes z = zk ? zlibStb(raw) : zlibStored(raw, 1 + rng() % 40);
+          const Bytes png = makePng(ihdr(w, h, 8, colour), z, 1 + rng() % 23);
+          const std::string what = "colour " + std::to_string(colour) + " " + std::to_string(w) + "x" +
+                                   std::to_string(h) + (zk ? " stb zlib" : " stored");
+          expectFastEqualsStb(png, what);
+          somm::detail::RawImage img;
+          ASSERT_TRUE(somm::detail::decodePngFast(png.data(), png.size(), img));
+          EXPECT_TRUE(samples(img) == pixels) << what;
+          ++cases;
+        }
+      }
+  EXPECT_EQ(cases, 4 * 7 * 3 * 2);
+}
+
+TEST(PngFast, EveryFilterOnRgbaRowsEqualsScalar) {
+  // The SSE2 unfilter of 4-byte pixels and the scalar one against the source, every filter type on every row
+  // position; pixels from small alphabets, so the Paeth predictor's ties (pa = pb, pa = pc, pb = pc) all occur.
+  std::mt19937 rng(7);
+  for (uint32_t w : {1u, 3u, 4u, 5u, 64u, 129u})
+    for (int alphabet : {3, 5, 256}) {
+      const uint32_t h = 15;
+      Bytes pixels(size_t(w) * 4 * h);
+      for (auto& v : pixels) v = uint8_t((rng() % unsigned(alphabet)) * (alphabet == 3 ? 127 : 1));
+      std::vector<int> filters(h);
+      for (uint32_t y = 0; y < h; ++y) filters[y] = int(y % 5);
+      const Bytes raw = filterRows(pixels, w, h, 4, filters);
+      Bytes a = raw, b = raw;
+      ASSERT_TRUE(somm::detail::pngUnfilter(a.data(), w, h, 4, true));
+      ASSERT_TRUE(somm::detail::pngUnfilter(b.data(), w, h, 4, false));
+      a.resize(pixels.size());
+      b.resize(pixels.size());
+      EXPECT_TRUE(a == pixels) << w << " " << alphabet;
+      EXPECT_TRUE(b == pixels) << w << " " << alphabet;
+    }
+  Bytes bad = {5, 1, 2, 3, 4};
+  EXPECT_FALSE(somm::detail::pngUnfilter(bad.data(), 1, 1, 4, true));
+}
+
+TEST(PngFast, LeavesEverythingElseToStb) {
+  const uint32_t w = 6, h = 3;
+  Bytes pixels(w * h * 4);
+  for (size_t i = 0; i < pixels.size(); ++i) pixels[i] = uint8_t(i * 37);
+  const Bytes raw = filterRows(pixels, w, h, 4, {0, 4, 1});
+  const Bytes z = zlibStored(raw);
+  expectFastEqualsStb(makePng(ihdr(w, h, 8, 6), z, 1000), "baseline");
+  // Each input: the fast path declines, and decodeImage gives exactly what stb gives (or fails where stb fails).
+  struct Case {
+    std::string what;
+    Bytes png;
+  };
+  Bytes zExtra = raw;
+  zExtra.insert(zExtra.end(), {1, 2, 3});  // more data than the image (stb accepts and ignores it)
+  Bytes zShort(raw.begin(), raw.end() - 1);
+  Bytes zBadAdler = z;
+  zBadAdler.back() ^= 1;  // stb does not check the Adler-32, libdeflate does
+  Bytes rawBadFilter = raw;
+  rawBadFilter[0] = 5;
+  const std::vector<Case> cases = {
+      {"16-bit", makePng(ihdr(w, h, 16, 6), zlibStored(Bytes(raw.size() * 2, 0)), 1000)},
+      {"interlaced", makePng(ihdr(w, h, 8, 6, 1), z, 1000)},
+      {"palette",
+       makePng(ihdr(w, h, 8, 3), zlibStored(Bytes((w + 1) * h, 0)), 1000, {{"PLTE", Bytes(6, 9)}})},
+      {"tRNS", makePng(ihdr(w, h, 8, 2), zlibStored(filterRows(Bytes(w * h * 3, 1), w, h, 3, {0, 0, 0})),
+                       1000, {{"tRNS", Bytes{0, 1, 0, 1, 0, 1}}})},
+      {"PLTE in RGB", makePng(ihdr(w, h, 8, 6), z, 1000, {{"PLTE", Bytes(6, 9)}})},
+      {"CgBI", makePng(ihdr(w, h, 8, 6), z, 1000, {{"CgBI", Bytes(4, 0)}})},
+      {"unknown critical chunk", makePng(ihdr(w, h, 8, 6), z, 1000, {{"ABCD", Bytes(2, 0)}})},
+      {"extra inflated data", makePng(ihdr(w, h, 8, 6), zlibStored(zExtra), 1000)},
+      {"short inflated data", makePng(ihdr(w, h, 8, 6), zlibStored(zShort), 1000)},
+      {"bad Adler-32", makePng(ihdr(w, h, 8, 6), zBadAdler, 1000)},
+      {"filter type 5", makePng(ihdr(w, h, 8, 6), zlibStored(rawBadFilter), 1000)},
+      {"no IDAT", makePng(ihdr(w, h, 8, 6), Bytes{}, 1000)},
+  };
+  for (const Case& c : cases) {
+    somm::detail::RawImage img;
+    EXPECT_FALSE(somm::detail::decodePngFast(c.png.data(), c.png.size(), img)) << c.what;
+    EXPECT_EQ(img.samples, nullptr) << c.what;
+    const StbImage s = stbDecode(c.png);
+    const auto r = somm::detail::decodeImage(c.png.data(), c.png.size());
+    EXPECT_EQ(r.ok(), s.ok) << c.what;
+    if (r.ok() && s.ok && !r->sixteenBit) {
+      EXPECT_EQ(r->channels, uint32_t(s.c)) << c.what;
+      EXPECT_TRUE(samples(*r) == s.px) << c.what;
+    }
+  }
+  // Missing IEND, and a truncated chunk.
+  Bytes noEnd = makePng(ihdr(w, h, 8, 6), z, 1000);
+  noEnd.resize(noEnd.size() - 12);
+  somm::detail::RawImage img;
+  EXPECT_FALSE(somm::detail::decodePngFast(noEnd.data(), noEnd.size(), img));
+  Bytes cut = makePng(ihdr(w, h, 8, 6), z, 1000);
+  cut.resize(cut.size() - 20);
+  EXPECT_FALSE(somm::detail::decodePngFast(cut.data(), cut.size(), img));
+}
+
+TEST(PngFast, BundledTexturesEqualStb) {
+  int n = 0;
+  for (const auto& e : std::filesystem::recursive_directory_iterator(SOMM_DATA_DIR))
+    if (e.path().extension() == ".png") {
+      const Bytes png = readFile(e.path().string());
+      somm::detail::RawImage img;
+      if (!somm::detail::decodePngFast(png.data(), png.size(), img)) continue;  // not in the subset
+      expectFastEqualsStb(png, e.path().string());
+      ++n;
+    }
+  EXPECT_GE(n, 3);
+}
+
+TEST(PngFast, RealTexturesEqualStb) {
+  const char* env = std::getenv("SOMM_FOLIAGE_DIR");
+  const std::string dir = env && *env ? env : SOMM_FOLIAGE_DIR;
+  if (dir.empty() || !std::filesystem::is_directory(dir)) GTEST_SKIP() << "no ../shared/assets/foliage";
+  int n = 0;
+  for (const auto& e : std::filesystem::recursive_directory_iterator(dir))
+    if (e.path().extension() == ".png") {
+      expectFastEqualsStb(readFile(e.path().string()), e.path().string());  // all real ones are in the subset
+      ++n;
+    }
+  EXPECT_GT(n, 150);
+}
+
+}  // namespace

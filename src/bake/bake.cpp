@@ -1254,9 +1254,16 @@ Status bakePass(const CoreInputs& ci, const std::vector<std::vector<uint8_t>>& l
   // delays the interning of later batches while the other threads go on. At most `tokens` batches (each bounded in
   // count and map bytes) are alive; batch k reuses ring slot k mod tokens, free since batch k − tokens has left the
   // last stage.
+  // The ring's maps stay allocated for reuse (no fresh pages per map): about kRingBytes in all — 32 batches per thread
+  // while that fits, fewer (at least 2 per thread + 2) when single maps are large (level 12: 4 MiB each).
   const uint32_t nj = uint32_t(jobs.size());
-  const size_t tokens = size_t(std::max(4, 32 * arena.max_concurrency()));
-  const uint64_t batchBytes = std::max<uint64_t>((uint64_t(64) << 20) / tokens, 1);
+  constexpr uint64_t kRingBytes = uint64_t(4) << 20;
+  uint64_t largestMap = 1;
+  for (const Job& j : jobs) largestMap = std::max<uint64_t>(largestMap, micromapDataBytes(j.level, o.format));
+  const size_t tokens = size_t(std::max<uint64_t>(
+      2 * uint64_t(arena.max_concurrency()) + 2,
+      std::min<uint64_t>(32 * uint64_t(arena.max_concurrency()), kRingBytes / largestMap)));
+  const uint64_t batchBytes = std::max<uint64_t>(kRingBytes / tokens, 1);
   constexpr uint32_t kBatchJobs = 16;
   struct Batch {
     uint32_t j0 = 0, j1 = 0;
@@ -1311,7 +1318,7 @@ Status bakePass(const CoreInputs& ci, const std::vector<std::vector<uint8_t>>& l
     return makeError(ErrorCode::Cancelled, "bake cancelled");
   emit(UINT32_MAX & ~kSpecialBit);
   assert(cursor == refs.size());
-  // The ring's maps (up to 64 MiB) are not needed any more: free them before finish() makes the data contiguous.
+  // The ring's maps (about kRingBytes) are not needed any more: free them before finish() makes the data contiguous.
   std::vector<Batch>().swap(ring);
   OmmArray array = builder.finish();
   finishScene(in, o, std::move(array), out);

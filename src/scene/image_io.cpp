@@ -150,7 +150,8 @@ std::vector<uint8_t> dropEmptyIdat(const uint8_t* p, size_t n) {
 
 }  // namespace
 
-Result<RawImage> decodeImage(const uint8_t* data, size_t size, const Limits& limits, uint64_t* decodedBytes) {
+Result<RawImage> decodeImage(const uint8_t* data, size_t size, const Limits& limits, uint64_t* decodedBytes,
+                             bool fastPng) {
   if (size == 0) return makeError(ErrorCode::CorruptFile, "empty image data");
   if (size > size_t(INT_MAX)) return makeError(ErrorCode::LimitExceeded, "image data larger than 2 GiB");
   const int n = int(size);
@@ -183,7 +184,7 @@ Result<RawImage> decodeImage(const uint8_t* data, size_t size, const Limits& lim
                            limitHint("decoded-bytes", limits.decodedImageBytes));
     *decodedBytes += cost;
   }
-  if (RawImage fast; decodePngFast(data, size, fast)) {
+  if (RawImage fast; fastPng && decodePngFast(data, size, fast)) {
     if (fast.width == uint32_t(w) && fast.height == uint32_t(h) && fast.channels == uint32_t(comp))
       return fast;
   }

@@ -36,17 +36,19 @@ struct RawImage {
 // Decodes an encoded image held in memory. The error message is the reason only (the caller adds context).
 // The declared size is checked against limits.imagePixels and, when decodedBytes is given, the decoded bytes of
 // the scene so far (*decodedBytes, updated) against limits.decodedImageBytes, before anything is decoded.
+// fastPng false: stb_image for every PNG too (the fast path's oracle in tests and fuzzing).
 Result<RawImage> decodeImage(const uint8_t* data, size_t size, const Limits& limits = defaultLimits(),
-                             uint64_t* decodedBytes = nullptr);
+                             uint64_t* decodedBytes = nullptr, bool fastPng = true);
 // Reads (a regular file, at most limits.imageFileBytes) and decodes an image file. The error message is the
 // reason only.
 Result<RawImage> readImageFile(const std::string& path, const Limits& limits = defaultLimits(),
                                uint64_t* decodedBytes = nullptr);
 
-// The common PNG subset — 8-bit grey, grey+alpha, RGB or RGBA, not interlaced, without PLTE, tRNS, CgBI or unknown
-// critical chunks — decoded with libdeflate and an in-place unfilter (docs/scene.md "PNG fast path"). False, with
-// `out` untouched, for anything else and on any failure: the caller then decodes with stb_image, whose verdict
-// stands. When true, the samples are stb_image's (stbi_load_from_memory, 0 requested channels) byte for byte.
+// The common PNG subset — 8-bit grey, grey+alpha, RGB, RGBA or palette (one PLTE, at most one tRNS), not interlaced,
+// without CgBI or unknown critical chunks — decoded with libdeflate and an in-place unfilter (docs/scene.md "PNG fast
+// path"). False, with `out` untouched, for anything else and on any failure: the caller then decodes with stb_image,
+// whose verdict stands. When true, the samples are those decodeImage gets from stb_image (stbi_load_from_memory, 0
+// requested channels, a palette padded to 256 entries) byte for byte.
 // Does no limit checks of its own beyond stb's dimension bounds: decodeImage checks first.
 bool decodePngFast(const uint8_t* data, size_t size, RawImage& out);
 // PNG unfiltering of `height` rows of `width` pixels of `channels` bytes, each row preceded by its filter-type byte

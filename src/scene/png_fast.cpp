@@ -168,43 +168,59 @@ bool pngUnfilter(uint8_t* buf, uint32_t width, uint32_t height, uint32_t channel
 bool decodePngFast(const uint8_t* data, size_t size, RawImage& out) {
   static const uint8_t kSig[8] = {0x89, 'P', 'N', 'G', 0x0d, 0x0a, 0x1a, 0x0a};
   if (size < 8 + 25 || std::memcmp(data, kSig, 8) != 0) return false;
-  // IHDR first, 13 bytes: 8-bit, grey (0) / RGB (2) / grey+alpha (4) / RGBA (6), methods 0, not interlaced.
+  // IHDR first, 13 bytes: 8-bit, grey (0) / RGB (2) / palette (3) / grey+alpha (4) / RGBA (6), methods 0, not
+  // interlaced.
   if (be32(data + 8) != 13 || std::memcmp(data + 12, "IHDR", 4) != 0) return false;
   const uint32_t w = be32(data + 16), h = be32(data + 20);
   const uint8_t depth = data[24], colour = data[25];
-  if (depth != 8 || (colour != 0 && colour != 2 && colour != 4 && colour != 6) || data[26] != 0 ||
-      data[27] != 0 || data[28] != 0)
+  if (depth != 8 || colour > 6 || colour == 1 || colour == 5 || data[26] != 0 || data[27] != 0 ||
+      data[28] != 0)
     return false;
-  const uint32_t channels = (colour & 2 ? 3u : 1u) + (colour & 4 ? 1u : 0u);
-  // stb_image's own bounds (2^24 a side, 2^30 samples).
+  const bool indexed = colour == 3;
+  // Samples per pixel in the stream (an index for a palette image).
+  const uint32_t streamChannels = indexed ? 1u : (colour & 2 ? 3u : 1u) + (colour & 4 ? 1u : 0u);
+  // stb_image's own bounds (2^24 a side, 2^30 samples; 4 per pixel for a palette image).
   if (w == 0 || h == 0 || w > (1u << 24) || h > (1u << 24) ||
-      uint64_t(w) * h * channels > (uint64_t(1) << 30))
+      uint64_t(w) * h * (indexed ? 4u : streamChannels) > (uint64_t(1) << 30))
     return false;
-  // The chunks up to IEND: IDAT data gathered; PLTE / tRNS (alpha or palette rules), CgBI (Apple's variant), a
-  // second IHDR and unknown critical chunks are left to stb.
+  // The chunks up to IEND: IDAT data gathered. A palette image takes one PLTE (at most 256 entries) and at most one
+  // tRNS after it, both before the first IDAT; entries past PLTE are black and alphas past tRNS 255 (what decodeImage
+  // gives stb: the palette padded to 256 entries). Anything else — PLTE or tRNS in other images, CgBI (Apple's
+  // variant), a second IHDR, unknown critical chunks — is left to stb.
   const uint8_t* single = nullptr;
   size_t singleLen = 0, idatCount = 0;
   std::vector<uint8_t> joined;
+  uint8_t palette[256][4] = {};
+  int plteCount = 0, trnsCount = 0;
   bool ended = false;
   for (size_t i = 8 + 25; size - i >= 12;) {
     const uint64_t len = be32(data + i);
     if (len + 12 > size - i) return false;
     const uint8_t* type = data + i + 4;
+    const uint8_t* body = data + i + 8;
     if (std::memcmp(type, "IEND", 4) == 0) {
       ended = true;
       break;
     }
     if (std::memcmp(type, "IDAT", 4) == 0) {
+      if (indexed && plteCount == 0) return false;
       if (len > 0) {
         if (idatCount == 0) {
-          single = data + i + 8;
+          single = body;
           singleLen = size_t(len);
         } else {
           if (idatCount == 1) joined.assign(single, single + singleLen);
-          joined.insert(joined.end(), data + i + 8, data + i + 8 + len);
+          joined.insert(joined.end(), body, body + len);
         }
         ++idatCount;
       }
+    } else if (indexed && std::memcmp(type, "PLTE", 4) == 0) {
+      if (plteCount++ != 0 || idatCount != 0 || len > 768 || len % 3 != 0) return false;
+      for (uint32_t k = 0; k < 256; ++k) palette[k][3] = 255;
+      for (uint32_t k = 0; k < len / 3; ++k) std::memcpy(palette[k], body + 3 * k, 3);
+    } else if (indexed && std::memcmp(type, "tRNS", 4) == 0) {
+      if (trnsCount++ != 0 || plteCount == 0 || idatCount != 0 || len > 256) return false;
+      for (uint32_t k = 0; k < len; ++k) palette[k][3] = body[k];
     } else if ((type[0] & 0x20) == 0 ||  // critical: IHDR again, PLTE, or unknown
                std::memcmp(type, "tRNS", 4) == 0 || std::memcmp(type, "CgBI", 4) == 0) {
       return false;
@@ -214,7 +230,7 @@ bool decodePngFast(const uint8_t* data, size_t size, RawImage& out) {
   if (!ended || idatCount == 0) return false;
   const uint8_t* z = idatCount == 1 ? single : joined.data();
   const size_t zLen = idatCount == 1 ? singleLen : joined.size();
-  const size_t rb = size_t(w) * channels, rawLen = (rb + 1) * h;
+  const size_t rb = size_t(w) * streamChannels, rawLen = (rb + 1) * h;
   std::unique_ptr<uint8_t, decltype(&std::free)> buf(static_cast<uint8_t*>(std::malloc(rawLen)), &std::free);
   if (!buf) return false;
   std::unique_ptr<libdeflate_decompressor, decltype(&libdeflate_free_decompressor)> d(
@@ -228,7 +244,24 @@ bool decodePngFast(const uint8_t* data, size_t size, RawImage& out) {
       produced != rawLen)
     return false;
   joined = std::vector<uint8_t>();  // the compressed copy is not needed any more
-  if (!pngUnfilter(buf.get(), w, h, channels, true)) return false;
+  if (!pngUnfilter(buf.get(), w, h, streamChannels, true)) return false;
+  uint32_t channels = streamChannels;
+  if (indexed) {
+    // Indices to RGB (RGBA with tRNS), as stb expands them.
+    channels = trnsCount != 0 ? 4u : 3u;
+    const size_t n = size_t(w) * h;
+    std::unique_ptr<uint8_t, decltype(&std::free)> rgb(static_cast<uint8_t*>(std::malloc(n * channels)),
+                                                       &std::free);
+    if (!rgb) return false;
+    const uint8_t* idx = buf.get();
+    uint8_t* o = rgb.get();
+    if (channels == 4) {
+      for (size_t k = 0; k < n; ++k) std::memcpy(o + 4 * k, palette[idx[k]], 4);
+    } else {
+      for (size_t k = 0; k < n; ++k) std::memcpy(o + 3 * k, palette[idx[k]], 3);
+    }
+    buf = std::move(rgb);
+  }
   out = RawImage{};
   out.width = w;
   out.height = h;

@@ -60,8 +60,9 @@ void unfilterScalar(uint8_t* row, const uint8_t* prior, size_t rb, int filter) {
 }
 
 #if defined(__SSE2__)
-// 4-byte pixels (RGBA): Sub, Average and Paeth depend on the pixel to the left, so they run a pixel at a time with
-// its 4 samples in 16-bit lanes; Up 16 bytes at a time. The same bytes as unfilterScalar<4>.
+// 4-byte pixels (RGBA): Sub, Average and Paeth depend on the pixel to the left, so they run a pixel at a time (Sub
+// and Average in byte lanes, Paeth with its 4 samples in 16-bit lanes); Up 16 bytes at a time. The same bytes as
+// unfilterScalar<4>.
 inline __m128i load4(const uint8_t* p) {
   int v;
   std::memcpy(&v, p, 4);
@@ -85,32 +86,53 @@ void unfilterRgbaSse2(uint8_t* row, const uint8_t* prior, size_t rb, int filter)
     return;
   }
   if (filter < 1 || filter > 4 || (filter == 2 && !prior)) return;
+  auto load8 = [](const uint8_t* q) {  // one pixel in the low 4 byte lanes
+    int v;
+    std::memcpy(&v, q, 4);
+    return _mm_cvtsi32_si128(v);
+  };
+  auto store8 = [](uint8_t* q, __m128i v) {
+    const int w = _mm_cvtsi128_si32(v);
+    std::memcpy(q, &w, 4);
+  };
+  if (filter == 1) {  // Sub: byte lanes, wrapping adds
+    __m128i a = zero;
+    for (size_t x = 0; x < rb; x += 4) {
+      a = _mm_add_epi8(load8(row + x), a);
+      store8(row + x, a);
+    }
+    return;
+  }
+  if (filter == 3) {  // Average: ⌊(a + b) / 2⌋ = avg_epu8(a, b) − ((a ^ b) & 1) in byte lanes
+    const __m128i lsb = _mm_set1_epi8(1);
+    __m128i a = zero;
+    for (size_t x = 0; x < rb; x += 4) {
+      const __m128i b = prior ? load8(prior + x) : zero;
+      const __m128i mean = _mm_sub_epi8(_mm_avg_epu8(a, b), _mm_and_si128(_mm_xor_si128(a, b), lsb));
+      a = _mm_add_epi8(load8(row + x), mean);
+      store8(row + x, a);
+    }
+    return;
+  }
+  // Paeth: 16-bit lanes (the predictor's distances need 9 bits and a sign).
   __m128i a = zero, c = zero;
   for (size_t x = 0; x < rb; x += 4) {
     const __m128i r = load4(row + x);
-    __m128i v;
-    if (filter == 1) {
-      v = _mm_add_epi16(r, a);
-    } else if (filter == 3) {
-      const __m128i b = prior ? load4(prior + x) : zero;
-      v = _mm_add_epi16(r, _mm_srli_epi16(_mm_add_epi16(a, b), 1));
-    } else {
-      const __m128i b = prior ? load4(prior + x) : zero;
-      const __m128i p = _mm_sub_epi16(b, c), q = _mm_sub_epi16(a, c), s = _mm_add_epi16(p, q);
-      const __m128i pa = _mm_max_epi16(p, _mm_sub_epi16(zero, p)),
-                    pb = _mm_max_epi16(q, _mm_sub_epi16(zero, q)),
-                    pc = _mm_max_epi16(s, _mm_sub_epi16(zero, s));
-      // pa <= pb && pa <= pc: a; else pb <= pc: b; else c.
-      const __m128i useA = _mm_and_si128(_mm_cmplt_epi16(pa, _mm_add_epi16(pb, one)),
-                                         _mm_cmplt_epi16(pa, _mm_add_epi16(pc, one)));
-      const __m128i useB = _mm_cmplt_epi16(pb, _mm_add_epi16(pc, one));
-      const __m128i bc = _mm_or_si128(_mm_and_si128(useB, b), _mm_andnot_si128(useB, c));
-      v = _mm_add_epi16(r, _mm_or_si128(_mm_and_si128(useA, a), _mm_andnot_si128(useA, bc)));
-      c = b;
-    }
-    v = _mm_and_si128(v, low);
+    const __m128i b = prior ? load4(prior + x) : zero;
+    const __m128i p = _mm_sub_epi16(b, c), q = _mm_sub_epi16(a, c), t = _mm_add_epi16(p, q);
+    const __m128i pa = _mm_max_epi16(p, _mm_sub_epi16(zero, p)),
+                  pb = _mm_max_epi16(q, _mm_sub_epi16(zero, q)),
+                  pc = _mm_max_epi16(t, _mm_sub_epi16(zero, t));
+    // pa <= pb && pa <= pc: a; else pb <= pc: b; else c.
+    const __m128i useA = _mm_and_si128(_mm_cmplt_epi16(pa, _mm_add_epi16(pb, one)),
+                                       _mm_cmplt_epi16(pa, _mm_add_epi16(pc, one)));
+    const __m128i useB = _mm_cmplt_epi16(pb, _mm_add_epi16(pc, one));
+    const __m128i bc = _mm_or_si128(_mm_and_si128(useB, b), _mm_andnot_si128(useB, c));
+    const __m128i v = _mm_and_si128(
+        _mm_add_epi16(r, _mm_or_si128(_mm_and_si128(useA, a), _mm_andnot_si128(useA, bc))), low);
     store4(row + x, v);
     a = v;
+    c = b;
   }
 }
 #endif

@@ -347,3 +347,34 @@ TEST(PngFast, RealTexturesEqualStb) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(AlphaFromRgba, EveryTexelAndRowOrder) {
+  // toAlphaTexture on 8-bit RGBA (the SSE2 path: 16 texels at a time, then the row's tail) against the alpha bytes.
+  std::mt19937 rng(11);
+  for (uint32_t w : {1u, 15u, 16u, 17u, 37u})
+    for (bool flip : {false, true}) {
+      const uint32_t h = 5;
+      auto* px = static_cast<uint8_t*>(std::malloc(size_t(w) * h * 4));
+      for (size_t i = 0; i < size_t(w) * h * 4; ++i) px[i] = uint8_t(rng());
+      somm::detail::RawImage img;
+      img.width = w;
+      img.height = h;
+      img.channels = 4;
+      img.samples = std::shared_ptr<const void>(px, [](const void* p) { std::free(const_cast<void*>(p)); });
+      for (auto channel :
+           {somm::detail::AlphaChannel::AlphaOrOne, somm::detail::AlphaChannel::AlphaOrLuminance}) {
+        const somm::AlphaTexture t = somm::detail::toAlphaTexture(img, channel, 1.0f, flip);
+        ASSERT_EQ(t.texelCount(), size_t(w) * h);
+        for (uint32_t y = 0; y < h; ++y)
+          for (uint32_t x = 0; x < w; ++x) {
+            const uint8_t a = px[(size_t(flip ? h - 1 - y : y) * w + x) * 4 + 3];
+            ASSERT_EQ(t.texel(size_t(y) * w + x), float(a) / 255.0f)
+                << w << " " << flip << " " << x << "," << y;
+          }
+      }
+    }
+}
+
+}  // namespace

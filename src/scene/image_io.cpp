@@ -10,6 +10,7 @@
 #include <cstring>
 #include <filesystem>
 #include <memory>
+#include <type_traits>
 
 #include "somm/io.h"
 
@@ -33,8 +34,7 @@ constexpr uint64_t kMaxExpansion = 1032;
 // PNG: every chunk must fit in the bytes present. stb_image grows its IDAT buffer to a chunk's declared length
 // before reading it, so a 100-byte file declaring a 2 GB IDAT chunk would make it allocate 2 GB.
 std::string pngChunkProblem(const uint8_t* p, size_t n) {
-  static const uint8_t kSig[8] = {0x89, 'P', 'N', 'G', 0x0d, 0x0a, 0x1a, 0x0a};
-  if (n < 8 || std::memcmp(p, kSig, 8) != 0) return {};
+  if (!hasPngSignature(p, n)) return {};
   size_t i = 8;
   while (n - i >= 8) {
     const uint64_t len = uint64_t(p[i]) << 24 | uint64_t(p[i + 1]) << 16 | uint64_t(p[i + 2]) << 8 | p[i + 3];
@@ -83,10 +83,6 @@ bool jpegHuffmanTablesValid(const uint8_t* p, size_t n) {
   return true;
 }
 
-uint32_t be32(const uint8_t* p) {
-  return uint32_t(p[0]) << 24 | uint32_t(p[1]) << 16 | uint32_t(p[2]) << 8 | p[3];
-}
-
 // A palette PNG's indices may exceed its PLTE entries; stb_image then reads its uninitialised palette memory.
 // Returns a copy with PLTE padded to 256 entries (black, opaque unless tRNS says otherwise — what libpng gives
 // for such indices), or nothing when the input needs no change. Chunk CRCs are recomputed.
@@ -110,7 +106,7 @@ std::vector<uint8_t> padPalette(const uint8_t* p, size_t n) {
   if (n < 33 || std::memcmp(p + 12, "IHDR", 4) != 0 || p[25] != 3) return {};  // colour type 3: palette
   size_t i = 8;
   while (n - i >= 12) {
-    const uint32_t len = be32(p + i);
+    const uint32_t len = loadBe32(p + i);
     if (std::memcmp(p + i + 4, "PLTE", 4) == 0) {
       if (len >= 768 || len % 3 != 0) return {};
       std::vector<uint8_t> out(p, p + i);
@@ -134,12 +130,11 @@ std::vector<uint8_t> padPalette(const uint8_t* p, size_t n) {
 // without them decodes to the same image. Empty when there is nothing to drop (or not a PNG).
 std::vector<uint8_t> dropEmptyIdat(const uint8_t* p, size_t n) {
   // Called after pngChunkProblem: every chunk fits.
-  static const uint8_t sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
-  if (n < 8 || std::memcmp(p, sig, 8) != 0) return {};
+  if (!hasPngSignature(p, n)) return {};
   std::vector<uint8_t> out;
   size_t i = 8, copied = 0;
   while (n - i >= 12) {
-    const uint32_t len = be32(p + i);
+    const uint32_t len = loadBe32(p + i);
     if (len == 0 && std::memcmp(p + i + 4, "IDAT", 4) == 0) {
       out.insert(out.end(), p + copied, p + i);
       copied = i + 12;
@@ -282,31 +277,28 @@ AlphaTexture toAlphaTexture(const RawImage& img, AlphaChannel channel, float fac
           continue;
         }
         const auto* src = in + size_t(sy) * img.width * nc + size_t(source);
-        for (uint32_t x = 0; x < img.width; ++x) row[x] = src[size_t(x) * nc];
+        uint32_t x = 0;
+#if defined(__SSE2__)
+        if constexpr (std::is_same_v<std::remove_cv_t<std::remove_pointer_t<decltype(in)>>, uint8_t>) {
+          if (nc == 4 && source == 3) {
+            // RGBA's alpha bytes, 16 texels at a time: each 32-bit texel shifted right by 24, packed to bytes.
+            const uint8_t* px = src - 3;
+            for (; x + 16 <= img.width; x += 16) {
+              __m128i q[4];
+              for (int k = 0; k < 4; ++k)
+                q[k] = _mm_srli_epi32(
+                    _mm_loadu_si128(reinterpret_cast<const __m128i*>(px + 4 * (size_t(x) + 4 * k))), 24);
+              const __m128i lo = _mm_packs_epi32(q[0], q[1]), hi = _mm_packs_epi32(q[2], q[3]);
+              _mm_storeu_si128(reinterpret_cast<__m128i*>(row + x), _mm_packus_epi16(lo, hi));
+            }
+          }
+        }
+#endif
+        for (; x < img.width; ++x) row[x] = src[size_t(x) * nc];
       }
     };
     if (!img.sixteenBit) {
       std::vector<uint8_t> v8(n);
-#if defined(__SSE2__)
-      if (nc == 4 && source == 3) {
-        // RGBA's alpha bytes, 16 texels at a time: each 32-bit texel shifted right by 24, packed to bytes.
-        for (uint32_t y = 0; y < img.height; ++y) {
-          const uint8_t* src = img.px8() + size_t(flipRows ? img.height - 1 - y : y) * img.width * 4;
-          uint8_t* row = v8.data() + size_t(y) * img.width;
-          uint32_t x = 0;
-          for (; x + 16 <= img.width; x += 16) {
-            __m128i q[4];
-            for (int k = 0; k < 4; ++k)
-              q[k] = _mm_srli_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(src + 4 * (x + 4 * k))),
-                                    24);
-            const __m128i lo = _mm_packs_epi32(q[0], q[1]), hi = _mm_packs_epi32(q[2], q[3]);
-            _mm_storeu_si128(reinterpret_cast<__m128i*>(row + x), _mm_packus_epi16(lo, hi));
-          }
-          for (; x < img.width; ++x) row[x] = src[4 * size_t(x) + 3];
-        }
-        return AlphaTexture::fromUInt8(img.width, img.height, std::move(v8), factor);
-      }
-#endif
       fill(v8.data(), uint8_t(255), img.px8());
       return AlphaTexture::fromUInt8(img.width, img.height, std::move(v8), factor);
     }

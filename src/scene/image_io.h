@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <cstring>
 #include <memory>
 #include <string>
 #include <vector>
@@ -43,6 +44,15 @@ Result<RawImage> decodeImage(const uint8_t* data, size_t size, const Limits& lim
 // reason only.
 Result<RawImage> readImageFile(const std::string& path, const Limits& limits = defaultLimits(),
                                uint64_t* decodedBytes = nullptr);
+
+// PNG helpers shared by the stb path's checks and the fast path: a big-endian u32, and the 8-byte signature.
+inline uint32_t loadBe32(const uint8_t* p) noexcept {
+  return uint32_t(p[0]) << 24 | uint32_t(p[1]) << 16 | uint32_t(p[2]) << 8 | p[3];
+}
+inline bool hasPngSignature(const uint8_t* p, size_t n) noexcept {
+  static constexpr uint8_t kSig[8] = {0x89, 'P', 'N', 'G', 0x0d, 0x0a, 0x1a, 0x0a};
+  return n >= 8 && std::memcmp(p, kSig, 8) == 0;
+}
 
 // The common PNG subset — 8-bit grey, grey+alpha, RGB, RGBA or palette (one PLTE, at most one tRNS), not interlaced,
 // without CgBI or unknown critical chunks — decoded with libdeflate and an in-place unfilter (docs/scene.md "PNG fast

@@ -18,10 +18,6 @@ namespace somm::detail {
 
 namespace {
 
-uint32_t be32(const uint8_t* p) {
-  return uint32_t(p[0]) << 24 | uint32_t(p[1]) << 16 | uint32_t(p[2]) << 8 | p[3];
-}
-
 // The Paeth predictor (PNG spec 9.4): a left, b up, c up-left; ties prefer a, then b.
 inline uint8_t paeth(int a, int b, int c) {
   const int pa = std::abs(b - c), pb = std::abs(a - c), pc = std::abs(a + b - 2 * c);
@@ -63,16 +59,25 @@ void unfilterScalar(uint8_t* row, const uint8_t* prior, size_t rb, int filter) {
 // 4-byte pixels (RGBA): Sub, Average and Paeth depend on the pixel to the left, so they run a pixel at a time (Sub
 // and Average in byte lanes, Paeth with its 4 samples in 16-bit lanes); Up 16 bytes at a time. The same bytes as
 // unfilterScalar<4>.
-inline __m128i load4(const uint8_t* p) {
+// One pixel's 4 bytes in the low byte lanes, and back.
+inline __m128i loadPixel(const uint8_t* p) {
   int v;
   std::memcpy(&v, p, 4);
-  return _mm_unpacklo_epi8(_mm_cvtsi32_si128(v), _mm_setzero_si128());
+  return _mm_cvtsi32_si128(v);
+}
+inline void storePixel(uint8_t* p, __m128i v) {
+  const int w = _mm_cvtsi128_si32(v);
+  std::memcpy(p, &w, 4);
+}
+// The same in 16-bit lanes (for Paeth).
+inline __m128i load4(const uint8_t* p) {
+  return _mm_unpacklo_epi8(loadPixel(p), _mm_setzero_si128());
 }
 inline void store4(uint8_t* p, __m128i v16) {
-  const int v = _mm_cvtsi128_si32(_mm_packus_epi16(v16, v16));
-  std::memcpy(p, &v, 4);
+  storePixel(p, _mm_packus_epi16(v16, v16));
 }
 
+// filter: 0..4 (unfilterRows rejects the others).
 void unfilterRgbaSse2(uint8_t* row, const uint8_t* prior, size_t rb, int filter) {
   const __m128i zero = _mm_setzero_si128(), low = _mm_set1_epi16(0xff), one = _mm_set1_epi16(1);
   if (filter == 2 && prior) {
@@ -85,21 +90,12 @@ void unfilterRgbaSse2(uint8_t* row, const uint8_t* prior, size_t rb, int filter)
     for (; x < rb; ++x) row[x] = uint8_t(row[x] + prior[x]);
     return;
   }
-  if (filter < 1 || filter > 4 || (filter == 2 && !prior)) return;
-  auto load8 = [](const uint8_t* q) {  // one pixel in the low 4 byte lanes
-    int v;
-    std::memcpy(&v, q, 4);
-    return _mm_cvtsi32_si128(v);
-  };
-  auto store8 = [](uint8_t* q, __m128i v) {
-    const int w = _mm_cvtsi128_si32(v);
-    std::memcpy(q, &w, 4);
-  };
-  if (filter == 1) {  // Sub: byte lanes, wrapping adds
+  if (filter == 0 || filter == 2) return;  // None, or Up on the first row (its prior row is zeros)
+  if (filter == 1) {                       // Sub: byte lanes, wrapping adds
     __m128i a = zero;
     for (size_t x = 0; x < rb; x += 4) {
-      a = _mm_add_epi8(load8(row + x), a);
-      store8(row + x, a);
+      a = _mm_add_epi8(loadPixel(row + x), a);
+      storePixel(row + x, a);
     }
     return;
   }
@@ -107,10 +103,10 @@ void unfilterRgbaSse2(uint8_t* row, const uint8_t* prior, size_t rb, int filter)
     const __m128i lsb = _mm_set1_epi8(1);
     __m128i a = zero;
     for (size_t x = 0; x < rb; x += 4) {
-      const __m128i b = prior ? load8(prior + x) : zero;
+      const __m128i b = prior ? loadPixel(prior + x) : zero;
       const __m128i mean = _mm_sub_epi8(_mm_avg_epu8(a, b), _mm_and_si128(_mm_xor_si128(a, b), lsb));
-      a = _mm_add_epi8(load8(row + x), mean);
-      store8(row + x, a);
+      a = _mm_add_epi8(loadPixel(row + x), mean);
+      storePixel(row + x, a);
     }
     return;
   }
@@ -188,12 +184,11 @@ bool pngUnfilter(uint8_t* buf, uint32_t width, uint32_t height, uint32_t channel
 }
 
 bool decodePngFast(const uint8_t* data, size_t size, RawImage& out) {
-  static const uint8_t kSig[8] = {0x89, 'P', 'N', 'G', 0x0d, 0x0a, 0x1a, 0x0a};
-  if (size < 8 + 25 || std::memcmp(data, kSig, 8) != 0) return false;
+  if (size < 8 + 25 || !hasPngSignature(data, size)) return false;
   // IHDR first, 13 bytes: 8-bit, grey (0) / RGB (2) / palette (3) / grey+alpha (4) / RGBA (6), methods 0, not
   // interlaced.
-  if (be32(data + 8) != 13 || std::memcmp(data + 12, "IHDR", 4) != 0) return false;
-  const uint32_t w = be32(data + 16), h = be32(data + 20);
+  if (loadBe32(data + 8) != 13 || std::memcmp(data + 12, "IHDR", 4) != 0) return false;
+  const uint32_t w = loadBe32(data + 16), h = loadBe32(data + 20);
   const uint8_t depth = data[24], colour = data[25];
   if (depth != 8 || colour > 6 || colour == 1 || colour == 5 || data[26] != 0 || data[27] != 0 ||
       data[28] != 0)
@@ -216,7 +211,7 @@ bool decodePngFast(const uint8_t* data, size_t size, RawImage& out) {
   int plteCount = 0, trnsCount = 0;
   bool ended = false;
   for (size_t i = 8 + 25; size - i >= 12;) {
-    const uint64_t len = be32(data + i);
+    const uint64_t len = loadBe32(data + i);
     if (len + 12 > size - i) return false;
     const uint8_t* type = data + i + 4;
     const uint8_t* body = data + i + 8;

@@ -553,24 +553,20 @@ inline State sdagStateAs(const uint8_t* data, const SdagDirectory& dir, uint32_t
   }
   return sdagNodeWalk<F>(data, dir, data + offset, level >> 1, index);
 }
-// A per-thread memo of the last lookup per triangle (256 entries, direct mapped by triangle): rays next to each
-// other hit the same triangles and nearby micro-triangles. An entry keeps the triangle's index-buffer value
-// resolved (the map's root, level, format, kind, or a special index's state), the last micro-triangle index it
-// looked up, the leaf around it (its 16 states) and the walk's path to it: path[h - 2] = the record of height h
-// covering index >> 4h (its byte offset in the data), or a state (< 4) when a uniform child above ended the walk.
-// The next lookup of the triangle restarts at the lowest record that covers both indices (a finger search): the
-// same leaf costs no DAG step, a neighbouring leaf one. Entries are keyed by the array's identity
-// (EncodedArray::identity(), unique per content: a new one for every build and parse, shared only by copies,
-// which hold the same bytes) and the triangle, and hold offsets and states (never pointers), so an entry can
-// never answer for other bytes.
+// A per-thread memo of the triangles' index-buffer values (256 entries, direct mapped by triangle): rays next to
+// each other hit the same triangles, so the packed index buffer and the descriptor are read once per triangle, not
+// per lookup. An entry keeps the triangle's value resolved: the map's root, level, format and kind, or a special
+// index's state. The walk itself starts at the map's root every time (sdagStateAs): remembering the last walk's
+// path and leaf to restart lower (a finger search) cost more than it saved in tracing, on coherent close-ups as
+// on default views (measured, docs/encodings.md). Entries are keyed by the array's identity
+// (EncodedArray::identity(), unique per content: a new one for every build and parse, shared only by copies, which
+// hold the same bytes) and the triangle, and hold offsets and states (never pointers), so an entry can never answer
+// for other bytes.
 struct SdagMemo {
   struct Entry {
     uint64_t array = 0;  // 0: empty (identities start at 1)
     uint32_t triangle = 0;
-    uint32_t root = 0;      // the map's descriptor offset, or (kind 2) the special index's state
-    uint32_t index = ~0u;   // the last index looked up (~0u: none since the entry was filled)
-    uint32_t leaf = 0;      // the 16 states of its leaf (index >> 4)
-    uint32_t path[5] = {};  // heights 2..6
+    uint32_t root = 0;  // the map's descriptor offset, or (kind 2) the special index's state
     uint8_t level = 0, format = 0, kind = 0;  // kind: 0 a DAG map, 1 a flat map, 2 a special index
   };
   Entry entry[256];
@@ -581,103 +577,6 @@ inline SdagMemo& sdagMemo() noexcept {
 }
 inline SdagMemo::Entry& sdagMemoEntry(uint32_t triangle) noexcept {
   return sdagMemo().entry[(triangle * 0x9e3779b1u) >> 24];
-}
-// Bits needed for x > 0 (the position of its highest set bit + 1).
-SOMM_ENCODE_INLINE uint32_t bitWidth32(uint32_t x) noexcept {
-#if defined(__GNUC__) || defined(__clang__)
-  return 32u - uint32_t(__builtin_clz(x));
-#else
-  uint32_t n = 0;
-  while (x) ++n, x >>= 1;
-  return n;
-#endif
-}
-// One step down from the node record of height h >= 2 at byte offset `at`: the child of height h - 1 covering
-// `index` (its byte offset; a leaf's for h = 2) or the state (< 4) of a uniform child.
-template <Format F>
-SOMM_ENCODE_INLINE uint32_t sdagStepDown(const uint8_t* data, const SdagDirectory& dir, uint32_t at,
-                                         uint32_t h, uint32_t index) noexcept {
-  constexpr uint32_t b = F == Format::TwoState ? 1u : 2u;
-  const uint8_t* p = data + at;
-  const uint32_t k = sdagRegion(F, h - 1u);
-  const uint32_t slot = (index >> (4u * (h - 1u))) & 15u, m = load16(p),
-                 below = popcount16(m & ((1u << slot) - 1u));
-  if (!((m >> slot) & 1u)) return getBit(p, 16u + slot - below);
-  const uint32_t n = popcount16(m);
-  return sdagChildAt(dir, p, at, 32u - n, n, below, k, h == 2u ? 2u * b : 0u, sdagNodeFlags(p, n));
-}
-// The 16 states (b bits each) at `at`: a leaf's, or a uniform state's (at < 4) repeated.
-template <Format F>
-SOMM_ENCODE_INLINE uint32_t sdagLeafWordAt(const uint8_t* data, uint32_t at) noexcept {
-  constexpr uint32_t repeat = F == Format::TwoState ? 0xffffu : 0x55555555u;
-  if (at < 4) return at * repeat;
-  return F == Format::TwoState ? load16(data + at) : load32(data + at);
-}
-// A step of the memo's walk from the record of height H at byte offset `at` (put on the entry's path): the child
-// covering `index` (its byte offset), or the state (< 4) of a uniform child, then also the path below it.
-template <Format F, uint32_t H>
-SOMM_ENCODE_INLINE uint32_t sdagMemoStep(const uint8_t* data, const SdagDirectory& dir, SdagMemo::Entry& e,
-                                         uint32_t at, uint32_t index) noexcept {
-  e.path[H - 2] = at;
-  const uint32_t c = sdagStepDown<F>(data, dir, at, H, index);
-  if (c < 4)
-    for (uint32_t j = 0; j + 2 < H; ++j) e.path[j] = c;
-  return c;
-}
-// The leaf word of a memo entry's map (kind 0) around `index` (b·16 bits, state i at bit b·i; a uniform block's
-// state repeated), by the walk from the lowest record on the entry's path that covers both `index` and the
-// entry's last index; updates the path and the last index.
-template <Format F>
-inline uint32_t sdagMemoLeafWord(const uint8_t* data, const SdagDirectory& dir, SdagMemo::Entry& e,
-                                 uint32_t index) noexcept {
-  const uint32_t level = e.level, top = level >> 1;  // the root's height (even) or its children's (odd)
-  uint32_t at, h = (bitWidth32(index ^ e.index) + 3u) >> 2;  // the lowest height whose block holds both
-  e.index = index;
-  if (level < 4) {  // at most a leaf under a 4-way root: nothing to keep
-    if (level <= 1) return data[e.root];
-    at = level == 3 ? sdagRootChild<F>(data, dir, e.root, level, index) : e.root;
-    return sdagLeafWordAt<F>(data, at);
-  }
-  if (h > top) {  // from the root (a 4-way root: from its child of height top)
-    h = top;
-    at = level & 1u ? sdagRootChild<F>(data, dir, e.root, level, index) : e.root;
-  } else {
-    at = e.path[h - 2];
-  }
-  // Down from height h, one case per height (the region, shift and reference kind of each step are constants).
-  if (at >= 4) {
-    switch (h) {
-      case 6:
-        if ((at = sdagMemoStep<F, 6>(data, dir, e, at, index)) < 4) break;
-        [[fallthrough]];
-      case 5:
-        if ((at = sdagMemoStep<F, 5>(data, dir, e, at, index)) < 4) break;
-        [[fallthrough]];
-      case 4:
-        if ((at = sdagMemoStep<F, 4>(data, dir, e, at, index)) < 4) break;
-        [[fallthrough]];
-      case 3:
-        if ((at = sdagMemoStep<F, 3>(data, dir, e, at, index)) < 4) break;
-        [[fallthrough]];
-      default:
-        at = sdagMemoStep<F, 2>(data, dir, e, at, index);
-    }
-  } else {  // a uniform child of the 4-way root (or a uniform block on the path: then already so below)
-    for (uint32_t j = 0; j + 2 <= h; ++j) e.path[j] = at;
-  }
-  return sdagLeafWordAt<F>(data, at);  // a leaf, or a uniform block
-}
-
-// The leaf word around `index` when the entry's last walk was in the same height-2 block (the common case of
-// the memo: one step from the record on the path, inline), else by sdagMemoLeafWord.
-template <Format F>
-SOMM_ENCODE_INLINE uint32_t sdagMemoNextLeafWord(const uint8_t* data, const SdagDirectory& dir,
-                                                 SdagMemo::Entry& e, uint32_t index) noexcept {
-  if (((index ^ e.index) >> 8) != 0 || e.level < 4) return sdagMemoLeafWord<F>(data, dir, e, index);
-  e.index = index;
-  uint32_t at = e.path[0];
-  if (at >= 4) at = sdagStepDown<F>(data, dir, at, 2u, index);
-  return sdagLeafWordAt<F>(data, at);
 }
 
 inline State sdagState(const uint8_t* data, const SdagDirectory& dir, uint32_t offset, uint32_t level,
@@ -873,7 +772,6 @@ class EncodedArray {
     const int32_t i = indexAs<Encoding::Sdag>(triangle);
     e.array = identity_;
     e.triangle = triangle;
-    e.index = ~0u;
     if (i < 0) {
       e.kind = 2;
       e.root = uint32_t(stateOfSpecialIndex(i));
@@ -896,12 +794,9 @@ class EncodedArray {
     const uint32_t index = indexOf(e.level);
     const Format f = Format(e.format);
     if (e.kind == 1) return encode::flatState(data_.data() + e.root, e.level, f, index);
-    if ((index ^ e.index) >= 16u)
-      e.leaf = f == Format::FourState
-                   ? encode::sdagMemoNextLeafWord<Format::FourState>(data_.data(), dir_, e, index)
-                   : encode::sdagMemoNextLeafWord<Format::TwoState>(data_.data(), dir_, e, index);
-    return f == Format::FourState ? State((e.leaf >> (2u * (index & 15u))) & 3u)
-                                  : State((e.leaf >> (index & 15u)) & 1u);
+    return f == Format::FourState
+               ? encode::sdagStateAs<Format::FourState>(data_.data(), dir_, e.root, e.level, index)
+               : encode::sdagStateAs<Format::TwoState>(data_.data(), dir_, e.root, e.level, index);
   }
 
   template <Encoding E>

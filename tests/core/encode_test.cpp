@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
 #include <map>
 #include <random>
@@ -1005,11 +1006,11 @@ TEST(EncodeDag, WalkMemoNeverAnswersForOtherBytes) {
     }
 }
 
-// The per-thread memo of sdag lookups (one entry per triangle hash, a finger search from the last index): any
-// order of lookups answers as flat. 600 triangles (more than the memo's 256 entries, so entries are evicted and
+// The per-thread memo of sdag lookups (one entry per triangle hash: the triangle's index-buffer value resolved):
+// any order of lookups answers as flat. 600 triangles (more than the memo's 256 entries, so entries are evicted and
 // refilled), maps of every level 0..10 and pattern (uniform maps become special indices, noise maps are stored
 // flat inside the sdag array), repeated maps; lookups in random order, stepping to the next index, flipping one
-// index bit (every height of the path), by index and by (u, v), with a second array interleaved.
+// index bit (every height of the walk), by index and by (u, v), with a second array interleaved.
 TEST(EncodeDag, WalkMemoAnswersAsFlatInAnyOrder) {
   for (Format f : {Format::TwoState, Format::FourState}) {
     std::mt19937 rng(f == Format::TwoState ? 11u : 12u);
@@ -1057,8 +1058,8 @@ TEST(EncodeDag, WalkMemoAnswersAsFlatInAnyOrder) {
     }
   }
 }
-// The memo's walk restarts at every height 2..6 of the deepest maps (levels 11 and 12: a 4-way root over height-5
-// records, a height-6 root): walks of neighbouring, bit-flipped and random indices, against flat.
+// The deepest maps (levels 11 and 12: a 4-way root over height-5 records, a height-6 root) through the memo:
+// neighbouring, bit-flipped and random indices (successive lookups differing at every height 2..6), against flat.
 TEST(EncodeDag, WalkMemoRestartsAtEveryHeightOfLevels11And12) {
   for (Format f : {Format::TwoState, Format::FourState}) {
     std::mt19937 rng(f == Format::TwoState ? 21u : 22u);
@@ -1080,7 +1081,7 @@ TEST(EncodeDag, WalkMemoRestartsAtEveryHeightOfLevels11And12) {
         default:
           i = last[t] ^ (1u << (rng() % (2 * level)));
       }
-      if (i != last[t]) ++restarts[std::min(7u, (encode::bitWidth32(i ^ last[t]) + 3u) >> 2)];
+      if (i != last[t]) ++restarts[std::min(7u, (uint32_t(std::bit_width(i ^ last[t])) + 3u) >> 2)];
       last[t] = i;
       ASSERT_EQ(e.state(t, i), oracle.state(t, i)) << int(f) << " triangle " << t << " index " << i;
     }

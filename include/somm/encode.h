@@ -542,6 +542,20 @@ SOMM_ENCODE_INLINE uint32_t sdagRootChild(const uint8_t* data, const SdagDirecto
   const uint32_t k = sdagRegion(F, h), n = popcount16(m);
   return sdagChildAt(dir, p, offset, 8u - n, n, below, k, h == 1 ? 2u * bitsPerState(F) : 0u);
 }
+// One step down from the node record of height h >= 2 at byte offset `at`: the child of height h - 1 covering
+// `index` (its byte offset; a leaf's for h = 2) or the state (< 2) of a uniform child.
+template <Format F>
+SOMM_ENCODE_INLINE uint32_t sdagStepDown(const uint8_t* data, const SdagDirectory& dir, uint32_t at,
+                                         uint32_t h, uint32_t index) noexcept {
+  constexpr uint32_t b = F == Format::TwoState ? 1u : 2u;
+  const uint8_t* p = data + at;
+  const uint32_t k = sdagRegion(F, h - 1u);
+  const uint32_t slot = (index >> (4u * (h - 1u))) & 15u, m = load16(p),
+                 below = popcount16(m & ((1u << slot) - 1u));
+  if (!((m >> slot) & 1u)) return getBit(p, 16u + slot - below);
+  const uint32_t n = popcount16(m);
+  return sdagChildAt(dir, p, at, 32u - n, n, below, k, h == 2u ? 2u * b : 0u, sdagNodeFlags(p, n));
+}
 template <Format F>
 inline State sdagStateAs(const uint8_t* data, const SdagDirectory& dir, uint32_t offset, uint32_t level,
                          uint32_t index) noexcept {
@@ -556,9 +570,10 @@ inline State sdagStateAs(const uint8_t* data, const SdagDirectory& dir, uint32_t
 // A per-thread memo of the triangles' index-buffer values (256 entries, direct mapped by triangle): rays next to
 // each other hit the same triangles, so the packed index buffer and the descriptor are read once per triangle, not
 // per lookup. An entry keeps the triangle's value resolved: the map's root, level, format and kind, or a special
-// index's state. The walk itself starts at the map's root every time (sdagStateAs): remembering the last walk's
-// path and leaf to restart lower (a finger search) cost more than it saved in tracing, on coherent close-ups as
-// on default views (measured, docs/encodings.md). Entries are keyed by the array's identity
+// index's state — and, filled as lookups need them, the root's children (each slot's child record or uniform
+// state), so that a walk of a map of level >= 4 starts one height below its root. Remembering the last walk's
+// path and leaf to restart lower still (a finger search) cost more than it saved in tracing, on coherent
+// close-ups as on default views (measured, docs/encodings.md). Entries are keyed by the array's identity
 // (EncodedArray::identity(), unique per content: a new one for every build and parse, shared only by copies, which
 // hold the same bytes) and the triangle, and hold offsets and states (never pointers), so an entry can never answer
 // for other bytes.
@@ -568,6 +583,8 @@ struct SdagMemo {
     uint32_t triangle = 0;
     uint32_t root = 0;  // the map's descriptor offset, or (kind 2) the special index's state
     uint8_t level = 0, format = 0, kind = 0;  // kind: 0 a DAG map, 1 a flat map, 2 a special index
+    uint16_t topValid = 0;                    // bit s: top[s] holds the root's child in slot s
+    uint32_t top[16] = {};                    // the root's children (byte offsets, or uniform states < 4)
   };
   Entry entry[256];
 };
@@ -577,6 +594,24 @@ inline SdagMemo& sdagMemo() noexcept {
 }
 inline SdagMemo::Entry& sdagMemoEntry(uint32_t triangle) noexcept {
   return sdagMemo().entry[(triangle * 0x9e3779b1u) >> 24];
+}
+// The state at `index` of a memo entry's DAG map (kind 0): the walk from the root's child covering `index`, taken
+// from the entry (or found and kept there), for maps of level >= 4; from the root below that.
+template <Format F>
+SOMM_ENCODE_INLINE State sdagMemoWalk(const uint8_t* data, const SdagDirectory& dir, SdagMemo::Entry& e,
+                                      uint32_t index) noexcept {
+  const uint32_t level = e.level;
+  if (level < 4) return sdagStateAs<F>(data, dir, e.root, level, index);
+  const uint32_t odd = level & 1u, slot = index >> (2u * level - 4u + 2u * odd);  // 4-way root: 2 bits
+  uint32_t at = e.top[slot];
+  if (!((e.topValid >> slot) & 1u)) {
+    at = odd ? sdagRootChild<F>(data, dir, e.root, level, index)
+             : sdagStepDown<F>(data, dir, e.root, level >> 1, index);
+    e.top[slot] = at;
+    e.topValid = uint16_t(e.topValid | (1u << slot));
+  }
+  if (at < 4) return State(at);
+  return sdagNodeWalk<F>(data, dir, data + at, (level >> 1) - 1u + odd, index);  // the child's height
 }
 
 inline State sdagState(const uint8_t* data, const SdagDirectory& dir, uint32_t offset, uint32_t level,
@@ -772,6 +807,7 @@ class EncodedArray {
     const int32_t i = indexAs<Encoding::Sdag>(triangle);
     e.array = identity_;
     e.triangle = triangle;
+    e.topValid = 0;
     if (i < 0) {
       e.kind = 2;
       e.root = uint32_t(stateOfSpecialIndex(i));
@@ -794,9 +830,8 @@ class EncodedArray {
     const uint32_t index = indexOf(e.level);
     const Format f = Format(e.format);
     if (e.kind == 1) return encode::flatState(data_.data() + e.root, e.level, f, index);
-    return f == Format::FourState
-               ? encode::sdagStateAs<Format::FourState>(data_.data(), dir_, e.root, e.level, index)
-               : encode::sdagStateAs<Format::TwoState>(data_.data(), dir_, e.root, e.level, index);
+    return f == Format::FourState ? encode::sdagMemoWalk<Format::FourState>(data_.data(), dir_, e, index)
+                                  : encode::sdagMemoWalk<Format::TwoState>(data_.data(), dir_, e, index);
   }
 
   template <Encoding E>

@@ -1007,10 +1007,11 @@ TEST(EncodeDag, WalkMemoNeverAnswersForOtherBytes) {
 }
 
 // The per-thread memo of sdag lookups (one entry per triangle hash: the index-buffer value resolved and the
-// root's children): any order of lookups answers as flat. 600 triangles (more than the memo's 256 entries, so entries are evicted and
-// refilled), maps of every level 0..10 and pattern (uniform maps become special indices, noise maps are stored
-// flat inside the sdag array), repeated maps; lookups in random order, stepping to the next index, flipping one
-// index bit (every height of the walk), by index and by (u, v), with a second array interleaved.
+// root's children): any order of lookups answers as flat. 600 triangles (more than the memo's 256 entries, so
+// entries are evicted and refilled), maps of every level 0..10 and pattern (uniform maps become special indices,
+// noise maps are stored flat inside the sdag array), repeated maps; lookups in random order, stepping to the next
+// index, flipping one index bit (every height of the walk), by index and by (u, v), with a second array
+// interleaved.
 TEST(EncodeDag, WalkMemoAnswersAsFlatInAnyOrder) {
   for (Format f : {Format::TwoState, Format::FourState}) {
     std::mt19937 rng(f == Format::TwoState ? 11u : 12u);

@@ -2,6 +2,7 @@
 // somm — opacity micromaps in the Vulkan / DXR spec layout.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <vector>
@@ -106,5 +107,24 @@ class Micromap {
   Format format_ = Format::TwoState;
   std::vector<uint8_t> bytes_ = std::vector<uint8_t>(1, 0);
 };
+
+// ---- one triangle, its vertices listed in another order ----
+// A triangle T' with the points of a triangle T listed in another order: order[k] is the vertex of T that is vertex k
+// of T' (a permutation of 0, 1, 2). T' is subdivided into the same micro-triangles as T (midpoints are midpoints in
+// any order), listed at other bird-curve indices. docs/baking.md "Vertex orders".
+using VertexOrder = std::array<uint8_t, 3>;
+
+// True when `order` is a permutation of (0, 1, 2).
+bool isVertexOrder(const VertexOrder& order) noexcept;
+
+// T''s micromap from T's (`map`, any level and format): state i of `out` is the state of the micro-triangle of `map`
+// covering the same region as micro-triangle i of T'. `out` takes `map`'s level and format (its storage is reused).
+void reorderVertices(const Micromap& map, const VertexOrder& order, Micromap& out);
+
+// Node `prefix` at `depth` (0..level) of T — the aligned block of micro-triangles [prefix · 4^(L - depth),
+// (prefix + 1) · 4^(L - depth)) at any level L ≥ depth — is node reorderedNode(...) at the same depth of T', where its
+// vertex k is its vertex nodeOrder[k] in T (the order reorderVertices applies inside it). nodeOrder may be null.
+uint32_t reorderedNode(uint32_t prefix, uint32_t depth, const VertexOrder& order,
+                       VertexOrder* nodeOrder = nullptr) noexcept;
 
 }  // namespace somm

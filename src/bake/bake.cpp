@@ -12,6 +12,7 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <bit>
 #include <cassert>
@@ -21,6 +22,7 @@
 #include <limits>
 #include <string>
 #include <thread>
+#include <unordered_map>
 
 namespace somm {
 
@@ -142,6 +144,13 @@ inline uint64_t workBudget(uint32_t level, uint32_t w, uint32_t h) noexcept {
   return kWorkBase + kWorkPerEdgeLevel * (uint64_t(w) + h) * (level + 1) + microTriangleCount(level) / 4;
 }
 
+// A tie of the majority rule (2 of the 4 child centroids pass, broken at a point towards the node's vertex 0): the
+// node [start, start + span) of the map that got the tie's state. Recorded for triangles whose vertices other
+// triangles list in another order (their ties are broken at their own vertex 0, see twinOf).
+struct Tie {
+  uint32_t start, span;
+};
+
 // Classifies one triangle's micro-triangles. Coordinates are in "cell space": texel space for nearest, texel
 // space shifted by −½ for linear (cell i of the shifted grid blends texels i and i + 1).
 struct TriangleClassifier {
@@ -156,6 +165,7 @@ struct TriangleClassifier {
   uint64_t unknown = 0;
   mutable uint64_t budget = ~uint64_t(0);  // work units left (see kWorkBase)
   mutable uint64_t work = 0;               // work units done: those spent plus one per leaf sampled
+  std::vector<Tie>* ties = nullptr;        // where to record ties (null: not recorded)
   // Side of a square (cell units) holding a whole wrap period in both axes; infinity when a wrap clamps.
   double periodSide = std::numeric_limits<double>::infinity();
   int64_t tw = 0, th = 0;  // the mask's size
@@ -609,8 +619,9 @@ struct TriangleClassifier {
   // The state of an unknown micro-triangle whose centroidPasses are `pass`.
   // `inside`: the micro-triangle lies inside the texture as samplesInside() tests (the tie-break point then reads
   // texels inside the texture: passesInside, the same bit as passesAt).
-  State unknownFrom(int pass, const double X[3], const double Y[3], bool inside = false, double ox = 0,
-                    double oy = 0) const noexcept {
+  // [start, start + span): the node's micro-triangles (for the tie record).
+  State unknownFrom(int pass, const double X[3], const double Y[3], uint32_t start, uint32_t span,
+                    bool inside = false, double ox = 0, double oy = 0) const {
     if (format == Format::TwoState && unknownAs != UnknownAs::Majority)
       return unknownAs == UnknownAs::Opaque ? State::Opaque : State::Transparent;
     bool opaque;
@@ -620,6 +631,7 @@ struct TriangleClassifier {
       // The middle child's centroid is the parent's centroid; break the tie with a point between it and
       // vertex 0.
       opaque = sampleWhere(inside, (2 * X[0] + X[1] + X[2]) / 4, (2 * Y[0] + Y[1] + Y[2]) / 4, ox, oy);
+      if (ties) ties->push_back(Tie{start, span});
     }
     if (format == Format::TwoState) return opaque ? State::Opaque : State::Transparent;
     return opaque ? State::UnknownOpaque : State::UnknownTransparent;
@@ -627,10 +639,10 @@ struct TriangleClassifier {
 
   // The state an unknown micro-triangle gets: by majority of the alpha test at the centroids of its 4
   // children (ties: a fifth point), or as the 2-state option says.
-  State unknownState(const double X[3], const double Y[3]) const noexcept {
+  State unknownState(const double X[3], const double Y[3], uint32_t start, uint32_t span) const {
     if (format == Format::TwoState && unknownAs != UnknownAs::Majority)
       return unknownAs == UnknownAs::Opaque ? State::Opaque : State::Transparent;
-    return unknownFrom(centroidPasses(X, Y), X, Y);
+    return unknownFrom(centroidPasses(X, Y), X, Y, start, span);
   }
 
   // The children of a node at depth level − 1 (leaves). Witnesses first: the 4 majority samples are points of the
@@ -710,7 +722,7 @@ struct TriangleClassifier {
   }
 #endif
 
-  void leaves(const double cX[4][3], const double cY[4][3], uint32_t prefix, unsigned vb) noexcept {
+  void leaves(const double cX[4][3], const double cY[4][3], uint32_t prefix, unsigned vb) {
     work += 4;
     // Every sample first, without branching on any (they are cheap; mispredicted branches are not): the 6 vertices
     // (bit p: point p passes) and each leaf's 4 child centroids. The parent's vertices are a (cX[0][0]), b
@@ -745,7 +757,7 @@ struct TriangleClassifier {
         }
       }
       ++unknown;
-      st[c] = unknownFrom(pass[c], cX[c], cY[c], inside, ox, oy);
+      st[c] = unknownFrom(pass[c], cX[c], cY[c], prefix * 4 + c, 1, inside, ox, oy);
     }
     // The 4 leaves (indices 4·prefix .. 4·prefix + 3) fill one byte (4-state) or one nibble (2-state): stored at once.
     if (format == Format::FourState) {
@@ -761,8 +773,7 @@ struct TriangleClassifier {
 
   // Node `prefix` at `depth` with cell-space vertices (X, Y) whose region class is `r`; bit k of `vb` is the alpha
   // test at vertex k (passesAt(X[k], Y[k]), taken once where the vertex was first a witness).
-  void node(const double X[3], const double Y[3], uint32_t depth, uint32_t prefix, unsigned r,
-            unsigned vb) noexcept {
+  void node(const double X[3], const double Y[3], uint32_t depth, uint32_t prefix, unsigned r, unsigned vb) {
     const uint32_t span = 1u << (2 * (level - depth));
     const uint32_t start = prefix * span;
     if (r == kPass) return fill(start, span, State::Opaque);
@@ -770,11 +781,11 @@ struct TriangleClassifier {
     spend(1);
     if (budget == 0 && depth < level) {  // work bound reached: the whole node unknown
       unknown += span;
-      return fill(start, span, unknownState(X, Y));
+      return fill(start, span, unknownState(X, Y, start, span));
     }
     if (depth == level) {
       ++unknown;
-      return fill(start, 1, unknownState(X, Y));
+      return fill(start, 1, unknownState(X, Y, start, 1));
     }
     const double ax = X[0], ay = Y[0], bx = X[1], by = Y[1], cx = X[2], cy = Y[2];
     const double abx = (ax + bx) * 0.5, aby = (ay + by) * 0.5;
@@ -815,6 +826,7 @@ struct Baked {
   uint64_t unknown = 0;
   uint64_t work = 0;  // TriangleClassifier::work
   bool nonFinite = false;
+  bool exhausted = false;  // the work bound was reached (what it left unknown depends on the vertex order)
 };
 
 State wholeUnknown(Format format, UnknownAs unknownAs) {
@@ -866,14 +878,16 @@ TriangleClassifier makeClassifier(const AlphaMask& mask, double margin, uint32_t
   return c;
 }
 
-// Classifies a prepared, usable triangle.
+// Classifies a prepared, usable triangle. `ties` (optional, cleared first): where the majority rule's ties go.
 void classify(const AlphaMask& mask, const Prepared& p, uint32_t level, Format format, UnknownAs unknownAs,
-              Baked& out) {
+              Baked& out, std::vector<Tie>* ties = nullptr) {
   out.uniform.reset();
   out.unknown = 0;
   out.work = 0;
   out.nonFinite = false;
   TriangleClassifier c = makeClassifier(mask, p.margin, level, format, unknownAs);
+  if (ties) ties->clear();
+  c.ties = ties;
   double X[3], Y[3];
   for (int k = 0; k < 3; ++k) {
     X[k] = p.X[k] - c.shift;
@@ -881,10 +895,11 @@ void classify(const AlphaMask& mask, const Prepared& p, uint32_t level, Format f
   }
   const unsigned r = c.region(X, Y, level == 0 ? kLeafCells : kNodeCells);
   out.work = c.work + 1;
+  out.exhausted = c.budget == 0;
   // Every micro-triangle (similar to the triangle, scaled by 2^-level) holds a whole period of a mixed texture: all
   // are unknown, with the triangle's majority state (O(1) instead of 4^level samples).
   if (r == kMixed && level > 0 && c.holdsPeriod(X, Y, std::ldexp(1.0, -int(level)))) {
-    out.uniform = c.unknownState(X, Y);
+    out.uniform = c.unknownState(X, Y, 0, microTriangleCount(level));
     out.unknown = microTriangleCount(level);
     return;
   }
@@ -893,7 +908,7 @@ void classify(const AlphaMask& mask, const Prepared& p, uint32_t level, Format f
     return;
   }
   if (level == 0) {
-    out.uniform = c.unknownState(X, Y);
+    out.uniform = c.unknownState(X, Y, 0, 1);
     out.unknown = 1;
     return;
   }
@@ -906,6 +921,59 @@ void classify(const AlphaMask& mask, const Prepared& p, uint32_t level, Format f
   c.node(X, Y, 0, 0, r, vb);
   out.unknown = c.unknown;
   out.work = c.work + 1;
+  out.exhausted = c.budget == 0;
+}
+
+// The outcome of a triangle listed in another order (order[k] = the vertex of the classified triangle `p` that is its
+// vertex k; docs/baking.md "Vertex orders"), from that triangle's outcome `base` and its ties: the same regions, so the
+// same classes and majorities — only where the majority rule tied, the point that broke the tie (towards a node's
+// vertex 0) is the twin's own, sampled again. Node vertices are recomputed with node()'s arithmetic (the same doubles).
+void twinOf(const AlphaMask& mask, const Prepared& p, uint32_t level, Format format, UnknownAs unknownAs,
+            const Baked& base, const std::vector<Tie>& ties, const VertexOrder& order, Baked& out) {
+  out.unknown = base.unknown;
+  out.work = 0;
+  out.nonFinite = false;
+  out.uniform = base.uniform;
+  const TriangleClassifier c = makeClassifier(mask, p.margin, level, format, unknownAs);
+  auto tieState = [&](const double X[3], const double Y[3], const VertexOrder& o) {
+    // unknownFrom's tie point for the node listed in order o.
+    const bool opaque =
+        c.passesAt((2 * X[o[0]] + X[o[1]] + X[o[2]]) / 4, (2 * Y[o[0]] + Y[o[1]] + Y[o[2]]) / 4);
+    if (format == Format::TwoState) return opaque ? State::Opaque : State::Transparent;
+    return opaque ? State::UnknownOpaque : State::UnknownTransparent;
+  };
+  double X0[3], Y0[3];
+  for (int k = 0; k < 3; ++k) {
+    X0[k] = p.X[k] - c.shift;
+    Y0[k] = p.Y[k] - c.shift;
+  }
+  if (base.uniform) {
+    // A uniform outcome ties only as a whole (level 0, or every micro-triangle holding a period).
+    if (!ties.empty()) out.uniform = tieState(X0, Y0, order);
+    return;
+  }
+  reorderVertices(base.map, order, out.map);
+  for (const Tie& t : ties) {
+    const uint32_t depth = level - uint32_t(std::countr_zero(t.span)) / 2, q = t.start / t.span;
+    double X[3], Y[3];
+    std::copy(X0, X0 + 3, X);
+    std::copy(Y0, Y0 + 3, Y);
+    for (uint32_t d = depth; d-- > 0;) {  // node()'s children, down to node q
+      const double ax = X[0], ay = Y[0], bx = X[1], by = Y[1], cx = X[2], cy = Y[2];
+      const double abx = (ax + bx) * 0.5, aby = (ay + by) * 0.5;
+      const double acx = (ax + cx) * 0.5, acy = (ay + cy) * 0.5;
+      const double bcx = (bx + cx) * 0.5, bcy = (by + cy) * 0.5;
+      const double cX[4][3] = {{ax, abx, acx}, {acx, bcx, abx}, {abx, bx, bcx}, {bcx, acx, cx}};
+      const double cY[4][3] = {{ay, aby, acy}, {acy, bcy, aby}, {aby, by, bcy}, {bcy, acy, cy}};
+      const uint32_t ch = (q >> (2 * d)) & 3u;
+      std::copy(cX[ch], cX[ch] + 3, X);
+      std::copy(cY[ch], cY[ch] + 3, Y);
+    }
+    VertexOrder nodeOrder{};
+    const uint32_t q2 = reorderedNode(q, depth, order, &nodeOrder);
+    const State s = tieState(X, Y, nodeOrder);
+    for (uint32_t i = q2 * t.span, e = i + t.span; i < e; ++i) out.map.set(i, s);
+  }
 }
 
 void bakeOne(const AlphaMask& mask, std::array<float, 2> uv0, std::array<float, 2> uv1,
@@ -1020,18 +1088,51 @@ uint64_t bitsOf(double d) noexcept {
   return u;
 }
 
+// A job's corners (bit patterns) in a canonical order: jobs listing the same three points in any order have equal
+// keys. Two jobs with equal inputs but their vertices in another order are one classification (docs/baking.md
+// "Vertex orders").
+struct CornerKey {
+  uint64_t c[3][2];
+  explicit CornerKey(const Job& j) noexcept {
+    for (int k = 0; k < 3; ++k) c[k][0] = bitsOf(j.X[k]), c[k][1] = bitsOf(j.Y[k]);
+    auto less = [](const uint64_t* a, const uint64_t* b) { return a[0] != b[0] ? a[0] < b[0] : a[1] < b[1]; };
+    auto swap = [&](int a, int b) {
+      if (less(c[b], c[a])) std::swap(c[a], c[b]);
+    };
+    swap(0, 1);
+    swap(1, 2);
+    swap(0, 1);
+  }
+  bool operator==(const CornerKey& o) const noexcept { return std::memcmp(c, o.c, sizeof c) == 0; }
+};
+
 uint64_t hashJob(const Job& j) noexcept {
   uint64_t h = mix(j.mask, j.level);
-  for (int k = 0; k < 3; ++k) h = mix(mix(h, bitsOf(j.X[k])), bitsOf(j.Y[k]));
+  const CornerKey key(j);
+  for (int k = 0; k < 3; ++k) h = mix(mix(h, key.c[k][0]), key.c[k][1]);
   h = mix(h, bitsOf(j.margin));
   return h ^ (h >> 29);
 }
 
+// The same inputs, the corners in any order.
 bool sameJob(const Job& a, const Job& b) noexcept {
   if (a.mask != b.mask || a.level != b.level || bitsOf(a.margin) != bitsOf(b.margin)) return false;
-  for (int k = 0; k < 3; ++k)
-    if (bitsOf(a.X[k]) != bitsOf(b.X[k]) || bitsOf(a.Y[k]) != bitsOf(b.Y[k])) return false;
-  return true;
+  return CornerKey(a) == CornerKey(b);
+}
+
+// The order of `t` relative to the job `j` with the same corners: t's vertex k is j's vertex order[k]; the index of
+// that order among kVertexOrders (0: the same order).
+constexpr VertexOrder kVertexOrders[6] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+uint32_t orderOf(const Job& t, const Job& j) noexcept {
+  for (uint32_t o = 0; o < 6; ++o) {
+    bool same = true;
+    for (int k = 0; k < 3; ++k) {
+      const int m = kVertexOrders[o][k];
+      same = same && bitsOf(t.X[k]) == bitsOf(j.X[m]) && bitsOf(t.Y[k]) == bitsOf(j.Y[m]);
+    }
+    if (same) return o;
+  }
+  return 0;  // unreachable for jobs with the same corners
 }
 
 // Removes whole periods of a repeating wrap mode: the cells (and the linear filter's blends) are periodic with the
@@ -1168,20 +1269,32 @@ Status bakePass(const CoreInputs& ci, const std::vector<std::vector<uint8_t>>& l
   for (uint32_t g = 0; g < in.geometryCount; ++g) triangles += in.geometries[g].triangleCount;
   std::vector<uint32_t> refs;
   refs.reserve(size_t(triangles));
+  // A triangle listing a job's corners in another order refers to the job and that order (refOrder: an index into
+  // kVertexOrders per triangle, allocated at the first such triangle); jobTwins: per job, bit o = some triangle
+  // needs its map in order o.
+  std::vector<uint8_t> refOrder, jobTwins;
+  // (job a, job · 8 + order): the map of a job in another order first appears after job a's first triangle and before
+  // job a + 1's; in that place it goes into the array (as a per-triangle builder would add it). In order of a.
+  std::vector<std::pair<uint32_t, uint64_t>> twinsAfter;
+  auto pushRef = [&](uint32_t ref, uint32_t order) {
+    if (order != 0 && refOrder.empty()) refOrder.assign(refs.size(), 0);
+    if (!refOrder.empty()) refOrder.push_back(uint8_t(order));
+    refs.push_back(ref);
+  };
   for (uint32_t g = 0; g < in.geometryCount; ++g) {
     const GeometryInput& gi = in.geometries[g];
     const MaterialPlan& plan = ci.plans[gi.material];
     const GeometryReader r{gi};
     for (uint32_t t = 0; t < gi.triangleCount; ++t) {
       if (!plan.mask) {
-        refs.push_back(kSpecialBit | (plan.allUnknown ? kAllUnknownBit : 0u) | uint32_t(plan.state));
+        pushRef(kSpecialBit | (plan.allUnknown ? kAllUnknownBit : 0u) | uint32_t(plan.state), 0);
         continue;
       }
       const uint32_t level = std::min<uint32_t>(levels[g][t], cap);
       Prepared p;
       prepare(*plan.mask, r.corner(t, 0), r.corner(t, 1), r.corner(t, 2), p);
       if (!p.usable) {
-        refs.push_back(kSpecialBit | kNonFiniteBit | uint32_t(wholeUnknown(o.format, o.unknownAs)));
+        pushRef(kSpecialBit | kNonFiniteBit | uint32_t(wholeUnknown(o.format, o.unknownAs)), 0);
         continue;
       }
       Job j;
@@ -1192,7 +1305,19 @@ Status bakePass(const CoreInputs& ci, const std::vector<std::vector<uint8_t>>& l
       j.margin = p.margin;
       removePeriods(j.X, plan.mask->width(), plan.mask->sampler().wrapS);
       removePeriods(j.Y, plan.mask->height(), plan.mask->sampler().wrapT);
-      refs.push_back(table.insert(j, jobs));
+      const size_t known = jobs.size();
+      const uint32_t id = table.insert(j, jobs);
+      uint32_t order = 0;
+      if (jobs.size() == known) {
+        order = orderOf(j, jobs[id]);
+        if (order != 0 && !(jobTwins[id] & (1u << order))) {
+          jobTwins[id] = uint8_t(jobTwins[id] | (1u << order));
+          twinsAfter.push_back({uint32_t(jobs.size() - 1), uint64_t(id) * 8 + order});
+        }
+      } else {
+        jobTwins.push_back(0);
+      }
+      pushRef(id, order);
     }
   }
   table = JobTable{};
@@ -1208,6 +1333,11 @@ Status bakePass(const CoreInputs& ci, const std::vector<std::vector<uint8_t>>& l
   // the first one of a later chunk's job are complete.
   OmmArrayBuilder builder;
   std::vector<int32_t> jobIndex(jobs.size(), 0);
+  // job · 8 + order → the index of the job's map in that order and its unknown micro-triangles (the same as the
+  // job's unless the work bound was reached)
+  std::unordered_map<uint64_t, std::pair<int32_t, uint64_t>> twinIndex;
+  std::unordered_map<uint64_t, Micromap> pending;  // maps of twinIndex not yet in the array
+  size_t nextTwin = 0;                             // twinsAfter[nextTwin] is the next to add
   std::vector<uint32_t> jobUnknown(jobs.size(), 0);
   out.geometries.assign(in.geometryCount, GeometryBake{});
   out.classifiedTriangles = jobs.size();
@@ -1238,8 +1368,15 @@ Status bakePass(const CoreInputs& ci, const std::vector<std::vector<uint8_t>>& l
         const uint32_t level = jobs[ref].level;
         gb.levels[ct] = uint8_t(level);
         st.microTriangles += microTriangleCount(level);
-        st.unknownMicroTriangles += jobUnknown[ref];
-        builder.addIndex(jobIndex[ref]);
+        const uint32_t order = refOrder.empty() ? 0u : refOrder[cursor];
+        if (order == 0) {
+          st.unknownMicroTriangles += jobUnknown[ref];
+          builder.addIndex(jobIndex[ref]);
+        } else {
+          const auto& [index, unknown] = twinIndex.at(uint64_t(ref) * 8 + order);
+          st.unknownMicroTriangles += unknown;
+          builder.addIndex(index);
+        }
       }
       ++cursor;
       if (++ct == in.geometries[cg].triangleCount) {
@@ -1267,7 +1404,9 @@ Status bakePass(const CoreInputs& ci, const std::vector<std::vector<uint8_t>>& l
   constexpr uint32_t kBatchJobs = 16;
   struct Batch {
     uint32_t j0 = 0, j1 = 0;
-    std::vector<Baked> slots;  // maps are kept for reuse by a later batch
+    std::vector<Baked> slots;                 // maps are kept for reuse by a later batch
+    std::vector<std::array<Baked, 6>> twins;  // per slot, the job's outcome in the orders it is needed in
+    std::vector<Tie> ties;
   };
   std::vector<Batch> ring(std::max<size_t>(1, std::min<size_t>(tokens, nj)));
   uint32_t next = 0;
@@ -1286,10 +1425,14 @@ Status bakePass(const CoreInputs& ci, const std::vector<std::vector<uint8_t>>& l
           Batch* b = &ring[issued++ % ring.size()];
           b->j0 = next;
           uint64_t bytes = 0;
-          while (next < nj && next - b->j0 < kBatchJobs && bytes < batchBytes)
-            bytes += micromapDataBytes(jobs[next++].level, o.format);
+          while (next < nj && next - b->j0 < kBatchJobs && bytes < batchBytes) {
+            bytes += micromapDataBytes(jobs[next].level, o.format) *
+                     (1u + uint32_t(std::popcount(jobTwins[next])));
+            ++next;
+          }
           b->j1 = next;
           if (b->slots.size() < b->j1 - b->j0) b->slots.resize(b->j1 - b->j0);
+          if (b->twins.size() < b->j1 - b->j0) b->twins.resize(b->j1 - b->j0);
           return b;
         }) & tbb::make_filter<Batch*, Batch*>(tbb::filter_mode::parallel, [&](Batch* b) {
           for (uint32_t i = b->j0; i != b->j1; ++i) {
@@ -1298,7 +1441,23 @@ Status bakePass(const CoreInputs& ci, const std::vector<std::vector<uint8_t>>& l
             std::copy(j.X, j.X + 3, p.X);
             std::copy(j.Y, j.Y + 3, p.Y);
             p.margin = j.margin;
-            classify(*masks[j.mask], p, j.level, o.format, o.unknownAs, b->slots[i - b->j0]);
+            Baked& base = b->slots[i - b->j0];
+            classify(*masks[j.mask], p, j.level, o.format, o.unknownAs, base,
+                     jobTwins[i] ? &b->ties : nullptr);
+            for (uint32_t t = jobTwins[i]; t; t &= t - 1) {
+              const uint32_t order = uint32_t(std::countr_zero(t));
+              const VertexOrder& vo = kVertexOrders[order];
+              Baked& tw = b->twins[i - b->j0][order];
+              if (!base.exhausted) {
+                twinOf(*masks[j.mask], p, j.level, o.format, o.unknownAs, base, b->ties, vo, tw);
+              } else {
+                // Where the work bound cut the classification short depends on the order the nodes were visited
+                // in: the triangle in its own order is classified on its own (as it would be without sharing).
+                Prepared q = p;
+                for (int k = 0; k < 3; ++k) q.X[k] = p.X[vo[k]], q.Y[k] = p.Y[vo[k]];
+                classify(*masks[j.mask], q, j.level, o.format, o.unknownAs, tw);
+              }
+            }
           }
           return b;
         }) & tbb::make_filter<Batch*, void>(tbb::filter_mode::serial_in_order, [&](Batch* b) {
@@ -1306,6 +1465,25 @@ Status bakePass(const CoreInputs& ci, const std::vector<std::vector<uint8_t>>& l
             const Baked& r = b->slots[i - b->j0];
             jobUnknown[i] = uint32_t(r.unknown);
             jobIndex[i] = r.uniform ? specialIndexFor(*r.uniform) : builder.intern(r.map);
+            // The job's maps in other orders wait (pending) for their place in the array.
+            for (uint32_t t = jobTwins[i]; t; t &= t - 1) {
+              const uint32_t order = uint32_t(std::countr_zero(t));
+              Baked& tw = b->twins[i - b->j0][order];
+              const uint64_t key = uint64_t(i) * 8 + order;
+              if (tw.uniform) {
+                twinIndex[key] = {specialIndexFor(*tw.uniform), tw.unknown};
+              } else {
+                twinIndex[key] = {-1, tw.unknown};
+                pending.emplace(key, std::move(tw.map));
+                tw.map = Micromap();  // not left moved-from: the slot's next job sizes it again
+              }
+            }
+            for (; nextTwin < twinsAfter.size() && twinsAfter[nextTwin].first == i; ++nextTwin) {
+              const auto it = pending.find(twinsAfter[nextTwin].second);
+              if (it == pending.end()) continue;  // a uniform map: a special index, no place in the array
+              twinIndex[it->first].first = builder.intern(it->second);
+              pending.erase(it);
+            }
           }
           emit(b->j1);
           // The progress callback runs on the calling thread only (when it runs this stage).

@@ -226,6 +226,141 @@ TEST(BakeScene, SceneArrayEqualsMergedPerGeometryBakes) {
   for (uint32_t g = 0; g < s.geometries.size(); ++g) expectSameArray(r->micromaps.arrays[g], per[g]);
 }
 
+// A triangle listing another triangle's corners in another order (a double-sided leaf card's back face) shares its
+// classification: its map is the first one's with the vertices reordered, where the majority rule tied the tie point
+// sampled again in its own order, and with the work bound reached it is classified on its own — the same states as
+// baking every triangle by itself (bakeTriangle).
+TEST(BakeScene, VertexOrdersShareOneClassification) {
+  const uint32_t W = 32, H = 32;
+  // A binary mask (alpha 0 or 1: under the linear filter the unknown band's majorities often tie) and a soft one.
+  std::vector<uint8_t> binary = alpha8(W, H);
+  for (uint8_t& v : binary) v = v >= 128 ? 255 : 0;
+  Scene s;
+  for (int k = 0; k < 2; ++k) {
+    Material m;
+    m.name = k ? "soft" : "binary";
+    m.alphaMode = AlphaMode::Mask;
+    m.sampler = kSampler;
+    m.alpha = std::make_shared<AlphaTexture>(floatTexture(k ? alpha8(W, H) : binary, W, H));
+    s.materials.push_back(m);
+  }
+  // UVs on a 2^-12 grid: every midpoint of the subdivision is exact, in any vertex order.
+  std::vector<float> base = randomUvs(40, 21);
+  for (float& c : base) c = std::round(c * 4096.0f) / 4096.0f;
+  const VertexOrder orders[6] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+  for (uint32_t m = 0; m < 2; ++m) {
+    std::vector<float> reordered;  // every triangle in the 5 other orders
+    for (size_t t = 0; t < base.size() / 6; ++t)
+      for (int o = 1; o < 6; ++o)
+        for (int k = 0; k < 3; ++k) {
+          reordered.push_back(base[6 * t + 2 * orders[o][k]]);
+          reordered.push_back(base[6 * t + 2 * orders[o][k] + 1]);
+        }
+    Geometry a = geometryOf(base, "base"), b = geometryOf(reordered, "reordered");
+    a.material = b.material = m;
+    s.geometries.push_back(a);
+    s.geometries.push_back(b);
+  }
+  // A triangle that reaches the work bound (docs/hardening.md: clamping wraps, UVs spanning thousands of texels) in
+  // two orders: where the bound cuts the classification short depends on the order.
+  Material clamped = s.materials[1];
+  clamped.name = "clamped";
+  clamped.sampler = Sampler{Wrap::ClampToEdge, Wrap::ClampToEdge, Filter::Linear};
+  s.materials.push_back(clamped);
+  const std::vector<float> huge = {-1000.f, -800.f, 1000.f, -790.f, 3.f,     1000.f,
+                                   1000.f,  -790.f, 3.f,    1000.f, -1000.f, -800.f};
+  Geometry h = geometryOf(huge, "huge");
+  h.material = 2;
+  s.geometries.push_back(h);
+
+  for (Format f : {Format::FourState, Format::TwoState})
+    for (uint32_t level : {3u, 7u}) {
+      BakeOptions o;
+      o.level = level;
+      o.format = f;
+      uint64_t unknown = 0, tieDifferences = 0;
+      std::vector<std::vector<Micromap>> own(s.geometries.size());
+      for (uint32_t g = 0; g < s.geometries.size(); ++g) {
+        const Geometry& geo = s.geometries[g];
+        const Material& mat = s.materials[geo.material];
+        const AlphaMask mask(*mat.alpha, mat.sampler, mat.alphaCutoff);
+        for (uint32_t t = 0; t < geo.triangleCount(); ++t) {
+          const float* uv = geo.uvs.data() + 6 * t;
+          const TriangleBake tb =
+              bakeTriangle(mask, {uv[0], uv[1]}, {uv[2], uv[3]}, {uv[4], uv[5]}, level, f);
+          unknown += tb.unknownCount;
+          own[g].push_back(tb.map);
+          if (geo.name == "reordered") {
+            // What reordering the first triangle's map alone would give: it differs where a majority tied.
+            Micromap r;
+            reorderVertices(own[g - 1][t / 5], orders[t % 5 + 1], r);
+            for (uint32_t i = 0; i < r.size(); ++i) tieDifferences += r.get(i) != tb.map.get(i);
+          }
+        }
+      }
+      EXPECT_GT(tieDifferences, 0u) << "the test needs ties";
+      if (level == 7 && f == Format::FourState) {
+        Micromap r;
+        reorderVertices(own.back()[0], {1, 2, 0}, r);
+        EXPECT_NE(r, own.back()[1]) << "the test needs the work bound to depend on the order";
+      }
+      for (uint32_t threads : {1u, 2u}) {
+        o.threads = threads;
+        auto r = bakeScene(s, o);
+        ASSERT_TRUE(r.ok()) << r.error().message;
+        // The 80 distinct corner sets once each, and the huge triangle in its two orders.
+        EXPECT_EQ(r->classifiedTriangles, 81u);
+        EXPECT_EQ(r->total.unknownMicroTriangles, unknown);
+        for (uint32_t g = 0; g < s.geometries.size(); ++g)
+          for (uint32_t t = 0; t < s.geometries[g].triangleCount(); ++t)
+            for (uint32_t i = 0; i < own[g][t].size(); ++i)
+              ASSERT_EQ(r->micromaps.state(g, t, i), own[g][t].get(i))
+                  << "format " << int(f) << " level " << level << " geometry " << g << " triangle " << t
+                  << " micro " << i;
+      }
+    }
+}
+
+// Many batches (the pipeline's ring slots are reused): every triangle followed by its back face (two vertices
+// swapped), the maps of the back faces made from the front faces' — the same states and the same array as baking each
+// triangle on its own and adding the maps in triangle order.
+TEST(BakeScene, VertexOrdersAcrossManyBatches) {
+  const uint32_t W = 32, H = 32;
+  Scene s;
+  Material m;
+  m.name = "soft";
+  m.alphaMode = AlphaMode::Mask;
+  m.sampler = kSampler;
+  m.alpha = std::make_shared<AlphaTexture>(floatTexture(alpha8(W, H), W, H));
+  s.materials.push_back(m);
+  std::vector<float> uv;
+  const std::vector<float> base = randomUvs(3000, 5);
+  for (size_t t = 0; t < base.size() / 6; ++t) {
+    const float* p = base.data() + 6 * t;
+    uv.insert(uv.end(), p, p + 6);
+    for (int k : {0, 2, 1}) uv.insert(uv.end(), {p[2 * k], p[2 * k + 1]});
+  }
+  s.geometries.push_back(geometryOf(uv, "cards"));
+  const AlphaMask mask(*m.alpha, m.sampler, m.alphaCutoff);
+  for (uint32_t level : {2u, 4u}) {
+    OmmArrayBuilder own;
+    for (uint32_t t = 0; t < uv.size() / 6; ++t) {
+      const float* p = uv.data() + 6 * t;
+      own.add(bakeTriangle(mask, {p[0], p[1]}, {p[2], p[3]}, {p[4], p[5]}, level, Format::FourState).map);
+    }
+    const OmmArray expected = own.finish();
+    BakeOptions o;
+    o.level = level;
+    for (uint32_t threads : {1u, 2u}) {
+      o.threads = threads;
+      auto r = bakeScene(s, o);
+      ASSERT_TRUE(r.ok()) << r.error().message;
+      EXPECT_EQ(r->classifiedTriangles, 3000u);
+      expectSameArray(r->micromaps.arrays[0], expected);
+    }
+  }
+}
+
 TEST(BakeScene, MaxBytesIsSceneWide) {
   const Scene s = sharedScene();
   BakeOptions o;
@@ -464,7 +599,7 @@ TEST(AlphaTextureStorage, SceneWithoutColourBakesTheSame) {
     for (const Material& m : full->materials) anyColour |= bool(m.baseColor);
     EXPECT_TRUE(anyColour);
     for (const Material& m : lean->materials) EXPECT_FALSE(m.baseColor);
-    for (uint32_t level : {3u, 6u}) {
+    for (uint32_t level : {3u, 7u}) {
       BakeOptions o;
       o.level = level;
       o.blend = BlendAs::Unknown;

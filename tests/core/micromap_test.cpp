@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <random>
+
 #include "somm/omm_array.h"
 
 namespace somm {
@@ -167,6 +169,86 @@ TEST(OmmArray, WideIndicesWhenDescriptorsExceed16Bits) {
   EXPECT_EQ(bytes[4 * 70000 + 3], 0xff);  // -2 as uint32 = 0xfffffffe
   EXPECT_EQ(bytes[4 * 70000 + 0], 0xfe);
   EXPECT_EQ(arr.data.size(), 70000u * 32);
+}
+
+// ---- vertex orders: checked against the geometry of indexToMicroTriangle ----
+
+// The 6 vertex orders (order[k] = the vertex of T that is vertex k of T').
+const VertexOrder kAllOrders[6] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+
+// A grid point of T' (units of 2^-level, weights of T''s vertices 1 and 2) as weights (w0, w1, w2) of T's vertices.
+std::array<uint32_t, 3> inT(GridPoint p, uint32_t n, const VertexOrder& order) {
+  const uint32_t w[3] = {n - p.u - p.v, p.u, p.v};
+  std::array<uint32_t, 3> r{};
+  for (int k = 0; k < 3; ++k) r[order[k]] = w[k];
+  return r;
+}
+
+TEST(VertexOrder, ReorderedMapReadsTheSameRegions) {
+  std::mt19937 rng(7);
+  for (Format f : {Format::TwoState, Format::FourState})
+    for (uint32_t level = 0; level <= 6; ++level) {
+      Micromap map(level, f);
+      for (uint32_t i = 0; i < map.size(); ++i) map.set(i, State(rng() & 3u));
+      const uint32_t n = 1u << level;
+      for (const VertexOrder& order : kAllOrders) {
+        ASSERT_TRUE(isVertexOrder(order));
+        Micromap out;
+        reorderVertices(map, order, out);
+        ASSERT_EQ(out.level(), level);
+        ASSERT_EQ(out.format(), f);
+        for (uint32_t i = 0; i < map.size(); ++i) {
+          // Micro-triangle i of T' as a region of T: its centroid picks T's micro-triangle.
+          const MicroTriangle m = indexToMicroTriangle(i, level);
+          uint32_t s1 = 0, s2 = 0;
+          for (const GridPoint& p : m.v) {
+            const auto w = inT(p, n, order);
+            s1 += w[1];
+            s2 += w[2];
+          }
+          const uint32_t j = baryToIndex(float(s1) / float(3 * n), float(s2) / float(3 * n), level);
+          ASSERT_EQ(out.get(i), map.get(j)) << "level " << level << " order " << int(order[0])
+                                            << int(order[1]) << int(order[2]) << " index " << i;
+        }
+        // Back with the inverse order gives the map again; unused bits of a partial byte stay zero.
+        VertexOrder inverse{};
+        for (uint8_t k = 0; k < 3; ++k) inverse[order[k]] = k;
+        Micromap back;
+        reorderVertices(out, inverse, back);
+        EXPECT_EQ(back, map);
+      }
+    }
+  EXPECT_FALSE(isVertexOrder({0, 0, 1}));
+  EXPECT_FALSE(isVertexOrder({0, 1, 3}));
+}
+
+TEST(VertexOrder, ReorderedNodeIsTheSameTriangleInItsOwnOrder) {
+  for (uint32_t depth = 0; depth <= 5; ++depth) {
+    const uint32_t n = 1u << depth;
+    for (const VertexOrder& order : kAllOrders)
+      for (uint32_t q = 0; q < (1u << (2 * depth)); ++q) {
+        VertexOrder nodeOrder{};
+        const uint32_t q2 = reorderedNode(q, depth, order, &nodeOrder);
+        ASSERT_LT(q2, 1u << (2 * depth));
+        // Node q of T and node q2 of T' in their own windings, both as weights of T's vertices.
+        const MicroTriangle a = indexToMicroTriangle(q, depth), b = indexToMicroTriangle(q2, depth);
+        for (int k = 0; k < 3; ++k) {
+          const auto wb = inT(b.v[k], n, order);
+          const GridPoint pa = a.v[nodeOrder[k]];
+          EXPECT_EQ(wb[1], pa.u) << depth << " " << q << " " << k;
+          EXPECT_EQ(wb[2], pa.v) << depth << " " << q << " " << k;
+        }
+        // The node's micro-triangles at a deeper level are the block of node q2.
+        if (depth <= 3) {
+          Micromap map(depth + 2, Format::FourState, State::Transparent);
+          for (uint32_t i = q * 16; i < q * 16 + 16; ++i) map.set(i, State::Opaque);
+          Micromap out;
+          reorderVertices(map, order, out);
+          for (uint32_t i = 0; i < out.size(); ++i)
+            EXPECT_EQ(out.get(i), (i >> 4) == q2 ? State::Opaque : State::Transparent);
+        }
+      }
+  }
 }
 
 }  // namespace

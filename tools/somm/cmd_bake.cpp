@@ -142,6 +142,10 @@ int run(const Options& o) {
   // (47.6 → 37 MB). A lower threshold (256 KiB) saves no more and costs CPU: the bake's smaller scratch blocks would
   // be mapped and faulted in afresh each time.
   mallopt(M_MMAP_THRESHOLD, 4 << 20);
+  // One heap for all threads: a worker thread's own heap keeps the pages of what it freed (the decoder's buffers, the
+  // bake's batches) resident beside the main heap's. forza.obj at level 6, two threads: 28.4 → 25.6 MB peak, no
+  // slower (the bake allocates little while it classifies).
+  mallopt(M_ARENA_MAX, 1);
 #endif
 
   // ---- scene ----

@@ -114,8 +114,9 @@ uint8_t fillByte(Format f, State s) {
 }
 
 // Linear filter: regions touching at most this many cells get the exact bilinear bound (leaves / inner
-// nodes).
-constexpr int64_t kLeafCells = 1024, kNodeCells = 4;
+// nodes). An inner node decided by it needs no descent: its leaves would all be decided alike (docs/baking.md
+// "Exact bounds at inner nodes"), so the limit changes the work, not the output.
+constexpr int64_t kLeafCells = 1024, kNodeCells = 64;
 
 // rect() answers from the pass bits for at most this many rows of texels, through AlphaMask::passFail beyond.
 constexpr int64_t kBitRows = 16;
@@ -345,7 +346,8 @@ struct TriangleClassifier {
 
   // kPass / kFail / kMixed for the closed triangle (X, Y) grown by the margin (Minkowski sum with a square):
   // the cells it touches all pass / all fail / neither. `cellLimit`: for the linear filter, regions touching
-  // at most this many cells get the exact bilinear bound (bilinearCells) instead of the four-corner bound.
+  // at most this many cells get the exact bilinear bound (bilinearCells) instead of the four-corner bound;
+  // kNodeCells: an inner node's test (its work counted per row, see bilinearCells).
   unsigned region(const double X[3], const double Y[3], int64_t cellLimit) const noexcept {
     const double m = margin;
     const int64_t i0 = cellFloor(min3(X) - m), i1 = cellFloor(max3(X) + m);
@@ -355,7 +357,7 @@ struct TriangleClassifier {
     // A region holding a whole period reads every texel, which pass and fail (box is mixed): O(1) however large.
     if (holdsPeriod(X, Y)) return kMixed;
     if (ext && i1 - i0 < cellLimit && j1 - j0 < cellLimit && (i1 - i0 + 1) * (j1 - j0 + 1) <= cellLimit)
-      return bilinearCells(X, Y, i0, i1, j0, j1);
+      return bilinearCells(X, Y, i0, i1, j0, j1, cellLimit == kNodeCells);
     if (j0 == j1) return box;
     if (j1 - j0 > kMaxRows) return kMixed;
     // Exact: per row of cells, the x-extent of the grown triangle within the row.
@@ -431,8 +433,10 @@ struct TriangleClassifier {
   }
 
   // [i0, i1] × [j0, j1]: the cells of the grown bounding box.
-  unsigned bilinearCells(const double X[3], const double Y[3], int64_t i0, int64_t i1, int64_t j0,
-                         int64_t j1) const noexcept {
+  // Work: a unit per cell of each row run whose corners disagree, or (`perRow`: an inner node's test, in place of the
+  // four-corner row walk's unit per row) a unit per such run.
+  unsigned bilinearCells(const double X[3], const double Y[3], int64_t i0, int64_t i1, int64_t j0, int64_t j1,
+                         bool perRow = false) const noexcept {
     const double m = margin;
     const Sampler& smp = mask.sampler();
     const float cutoff = mask.cutoff();
@@ -466,7 +470,7 @@ struct TriangleClassifier {
             continue;
           }
         }
-        spend(uint64_t(b - a + 1));
+        spend(perRow ? 1u : uint64_t(b - a + 1));
         // Cells whose four corners agree are decided by them, all at once; the others one by one. The region's
         // class does not depend on the order its cells are visited in (docs/baking.md "Cells in any order"):
         // the same answer as cell by cell.
@@ -499,7 +503,7 @@ struct TriangleClassifier {
           continue;
         }
       }
-      spend(uint64_t(b - a + 1));
+      spend(perRow ? 1u : uint64_t(b - a + 1));
       // Cell i's right corners are cell i + 1's left corners: each texel column is read once per row run.
       const uint32_t ya = wrapFast(j, th, smp.wrapT), yb = wrapFast(j + 1, th, smp.wrapT);
       const uint32_t xa0 = wrapFast(a, tw, smp.wrapS);

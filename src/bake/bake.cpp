@@ -345,10 +345,11 @@ struct TriangleClassifier {
   }
 
   // kPass / kFail / kMixed for the closed triangle (X, Y) grown by the margin (Minkowski sum with a square):
-  // the cells it touches all pass / all fail / neither. `cellLimit`: for the linear filter, regions touching
-  // at most this many cells get the exact bilinear bound (bilinearCells) instead of the four-corner bound;
-  // kNodeCells: an inner node's test (its work counted per row, see bilinearCells).
-  unsigned region(const double X[3], const double Y[3], int64_t cellLimit) const noexcept {
+  // the cells it touches all pass / all fail / neither. For the linear filter, regions touching at most
+  // kLeafCells (a leaf) / kNodeCells (`innerNode`) cells get the exact bilinear bound (bilinearCells) instead of
+  // the four-corner bound; an inner node's is counted per row (see bilinearCells).
+  unsigned region(const double X[3], const double Y[3], bool innerNode) const noexcept {
+    const int64_t cellLimit = innerNode ? kNodeCells : kLeafCells;
     const double m = margin;
     const int64_t i0 = cellFloor(min3(X) - m), i1 = cellFloor(max3(X) + m);
     const int64_t j0 = cellFloor(min3(Y) - m), j1 = cellFloor(max3(Y) + m);
@@ -357,7 +358,7 @@ struct TriangleClassifier {
     // A region holding a whole period reads every texel, which pass and fail (box is mixed): O(1) however large.
     if (holdsPeriod(X, Y)) return kMixed;
     if (ext && i1 - i0 < cellLimit && j1 - j0 < cellLimit && (i1 - i0 + 1) * (j1 - j0 + 1) <= cellLimit)
-      return bilinearCells(X, Y, i0, i1, j0, j1, cellLimit == kNodeCells);
+      return bilinearCells(X, Y, i0, i1, j0, j1, innerNode);
     if (j0 == j1) return box;
     if (j1 - j0 > kMaxRows) return kMixed;
     // Exact: per row of cells, the x-extent of the grown triangle within the row.
@@ -754,7 +755,7 @@ struct TriangleClassifier {
                              (((vpass >> kLeafVertex[c][2]) & 1u) << 2);
       // Witnesses agree: all 7 pass or all 7 fail.
       if ((pass[c] == 4 && vbits == 7u) || (pass[c] == 0 && vbits == 0)) {
-        const unsigned r = region(cX[c], cY[c], kLeafCells);
+        const unsigned r = region(cX[c], cY[c], false);
         if (r == kPass || r == kFail) {
           st[c] = r == kPass ? State::Opaque : State::Transparent;
           continue;
@@ -814,7 +815,7 @@ struct TriangleClassifier {
                                      (cY[c][0] + cY[c][1] + cY[c][2]) / 3, ox, oy) != v0;
       const unsigned cvb = unsigned(v[kLeafVertex[c][0]]) | unsigned(v[kLeafVertex[c][1]]) << 1 |
                            unsigned(v[kLeafVertex[c][2]]) << 2;
-      node(cX[c], cY[c], depth + 1, prefix * 4 + c, mixed ? kMixed : region(cX[c], cY[c], kNodeCells), cvb);
+      node(cX[c], cY[c], depth + 1, prefix * 4 + c, mixed ? kMixed : region(cX[c], cY[c], true), cvb);
     }
   }
 };
@@ -897,7 +898,7 @@ void classify(const AlphaMask& mask, const Prepared& p, uint32_t level, Format f
     X[k] = p.X[k] - c.shift;
     Y[k] = p.Y[k] - c.shift;
   }
-  const unsigned r = c.region(X, Y, level == 0 ? kLeafCells : kNodeCells);
+  const unsigned r = c.region(X, Y, level > 0);
   out.work = c.work + 1;
   out.exhausted = c.budget == 0;
   // Every micro-triangle (similar to the triangle, scaled by 2^-level) holds a whole period of a mixed texture: all
@@ -1921,7 +1922,7 @@ State classifyRegion(const AlphaMask& mask, std::array<float, 2> uv0, std::array
     X[k] = w * p.X[0] + u * p.X[1] + v * p.X[2] - c.shift;
     Y[k] = w * p.Y[0] + u * p.Y[1] + v * p.Y[2] - c.shift;
   }
-  const unsigned r = c.region(X, Y, kLeafCells);
+  const unsigned r = c.region(X, Y, false);
   return r == kPass ? State::Opaque : r == kFail ? State::Transparent : State::UnknownOpaque;
 }
 

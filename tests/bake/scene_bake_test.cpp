@@ -509,7 +509,7 @@ TEST(ClassifyRegion, AgreesWithTheBakedMicroTriangles) {
           const State s = classifyRegion(mask, a, b, c, corners);
           const State baked = map.get(i);
           EXPECT_EQ(isKnown(s) ? s : State::UnknownOpaque, isKnown(baked) ? baked : State::UnknownOpaque)
-              << "triangle " << t << " micro " << i;
+              << "level " << level << " filter " << int(f) << " triangle " << t << " micro " << i;
           known += isKnown(baked);
         }
         const std::array<double, 2> whole[3] = {{0, 0}, {1, 0}, {0, 1}};

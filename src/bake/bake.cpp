@@ -1150,30 +1150,34 @@ void removePeriods(double v[3], uint32_t size, Wrap w) noexcept {
   for (int i = 0; i < 3; ++i) v[i] -= k * period;
 }
 
-// Open-addressing table of job ids keyed by their inputs.
+// Open-addressing table of job ids keyed by their inputs. Each job's hash (hashJob) is kept beside it: probes
+// compare hashes before inputs, and growing does not hash again.
 class JobTable {
  public:
-  // The id of an equal job, or the new job's id (appended).
-  uint32_t insert(const Job& j, std::vector<Job>& jobs) {
-    if ((jobs.size() + 1) * 2 > slots_.size()) grow(jobs);
-    const uint64_t h = hashJob(j);
-    for (size_t i = h & (slots_.size() - 1);; i = (i + 1) & (slots_.size() - 1)) {
+  // The id of an equal job, or the new job's id (appended to `jobs`); h = hashJob(j).
+  uint32_t insert(const Job& j, uint64_t h, std::vector<Job>& jobs) {
+    if ((jobs.size() + 1) * 2 > slots_.size()) grow();
+    const size_t m = slots_.size() - 1;
+    for (size_t i = h & m;; i = (i + 1) & m) {
       if (slots_[i] == 0) {
         jobs.push_back(j);
+        hashes_.push_back(h);
         slots_[i] = uint32_t(jobs.size());
         return uint32_t(jobs.size() - 1);
       }
-      if (sameJob(jobs[slots_[i] - 1], j)) return slots_[i] - 1;
+      const uint32_t id = slots_[i] - 1;
+      if (hashes_[id] == h && sameJob(jobs[id], j)) return id;
     }
   }
-  void clear() { slots_.assign(1024, 0); }
 
  private:
   std::vector<uint32_t> slots_ = std::vector<uint32_t>(1024, 0);
-  void grow(const std::vector<Job>& jobs) {
+  std::vector<uint64_t> hashes_;  // by job id
+  void grow() {
     std::vector<uint32_t> next(slots_.size() * 2, 0);
-    for (uint32_t id = 0; id < jobs.size(); ++id)
-      for (size_t i = hashJob(jobs[id]) & (next.size() - 1);; i = (i + 1) & (next.size() - 1))
+    const size_t m = next.size() - 1;
+    for (uint32_t id = 0; id < hashes_.size(); ++id)
+      for (size_t i = hashes_[id] & m;; i = (i + 1) & m)
         if (next[i] == 0) {
           next[i] = id + 1;
           break;
@@ -1286,45 +1290,108 @@ Status bakePass(const CoreInputs& ci, const std::vector<std::vector<uint8_t>>& l
     if (!refOrder.empty()) refOrder.push_back(uint8_t(order));
     refs.push_back(ref);
   };
-  for (uint32_t g = 0; g < in.geometryCount; ++g) {
-    const GeometryInput& gi = in.geometries[g];
-    const MaterialPlan& plan = ci.plans[gi.material];
-    const GeometryReader r{gi};
-    for (uint32_t t = 0; t < gi.triangleCount; ++t) {
-      if (!plan.mask) {
-        pushRef(kSpecialBit | (plan.allUnknown ? kAllUnknownBit : 0u) | uint32_t(plan.state), 0);
-        continue;
-      }
-      const uint32_t level = std::min<uint32_t>(levels[g][t], cap);
-      Prepared p;
-      prepare(*plan.mask, r.corner(t, 0), r.corner(t, 1), r.corner(t, 2), p);
-      if (!p.usable) {
-        pushRef(kSpecialBit | kNonFiniteBit | uint32_t(wholeUnknown(o.format, o.unknownAs)), 0);
-        continue;
-      }
-      Job j;
-      j.mask = plan.maskId;
-      j.level = level;
-      std::copy(p.X, p.X + 3, j.X);
-      std::copy(p.Y, p.Y + 3, j.Y);
-      j.margin = p.margin;
-      removePeriods(j.X, plan.mask->width(), plan.mask->sampler().wrapS);
-      removePeriods(j.Y, plan.mask->height(), plan.mask->sampler().wrapT);
-      const size_t known = jobs.size();
-      const uint32_t id = table.insert(j, jobs);
-      uint32_t order = 0;
-      if (jobs.size() == known) {
-        order = orderOf(j, jobs[id]);
-        if (order != 0 && !(jobTwins[id] & (1u << order))) {
-          jobTwins[id] = uint8_t(jobTwins[id] | (1u << order));
-          twinsAfter.push_back({uint32_t(jobs.size() - 1), uint64_t(id) * 8 + order});
-        }
-      } else {
-        jobTwins.push_back(0);
-      }
-      pushRef(id, order);
-    }
-  }
+  // Each triangle's job (its corners in texel space, whole periods removed, and its hash) is prepared in parallel,
+  // in blocks of scene order; the blocks enter the table in order (the same job ids, refs and twins as one loop).
+  // At most `prepTokens` blocks are alive.
+  struct Candidate {
+    Job job;
+    uint64_t hash;
+    uint32_t special;  // a special outcome's reference (kSpecialBit set), or 0: the job
+  };
+  struct PrepBlock {
+    uint32_t g = 0, t = 0, count = 0;  // the block's first triangle (geometry, triangle) and its size
+    std::vector<Candidate> c;
+  };
+  constexpr uint32_t kPrepBlock = 1024;
+  std::vector<PrepBlock> prep(size_t(2 * arena.max_concurrency() + 2));
+  size_t prepIssued = 0;
+  uint32_t pg = 0, pt = 0;  // the next block's first triangle
+  arena.execute([&] {
+    tbb::parallel_pipeline(
+        prep.size(),
+        tbb::make_filter<void, PrepBlock*>(tbb::filter_mode::serial_in_order,
+                                           [&](tbb::flow_control& fc) -> PrepBlock* {
+                                             while (pg < in.geometryCount && pt == in.geometries[pg].triangleCount) {
+                                               ++pg;
+                                               pt = 0;
+                                             }
+                                             if (pg >= in.geometryCount) {
+                                               fc.stop();
+                                               return nullptr;
+                                             }
+                                             PrepBlock* b = &prep[prepIssued++ % prep.size()];
+                                             b->g = pg;
+                                             b->t = pt;
+                                             b->count = 0;
+                                             // Whole geometries and parts of them, kPrepBlock triangles in all.
+                                             while (pg < in.geometryCount && b->count < kPrepBlock) {
+                                               const uint32_t n = std::min(in.geometries[pg].triangleCount - pt,
+                                                                           kPrepBlock - b->count);
+                                               b->count += n;
+                                               pt += n;
+                                               if (pt == in.geometries[pg].triangleCount) {
+                                                 ++pg;
+                                                 pt = 0;
+                                               }
+                                             }
+                                             return b;
+                                           }) &
+            tbb::make_filter<PrepBlock*, PrepBlock*>(tbb::filter_mode::parallel, [&](PrepBlock* b) {
+              if (b->c.size() < b->count) b->c.resize(b->count);
+              uint32_t g = b->g, t = b->t;
+              for (uint32_t k = 0; k < b->count; ++k, ++t) {
+                while (t == in.geometries[g].triangleCount) ++g, t = 0;
+                const GeometryInput& gi = in.geometries[g];
+                const MaterialPlan& plan = ci.plans[gi.material];
+                Candidate& c = b->c[k];
+                if (!plan.mask) {
+                  c.special = kSpecialBit | (plan.allUnknown ? kAllUnknownBit : 0u) | uint32_t(plan.state);
+                  continue;
+                }
+                const GeometryReader r{gi};
+                Prepared p;
+                prepare(*plan.mask, r.corner(t, 0), r.corner(t, 1), r.corner(t, 2), p);
+                if (!p.usable) {
+                  c.special = kSpecialBit | kNonFiniteBit | uint32_t(wholeUnknown(o.format, o.unknownAs));
+                  continue;
+                }
+                Job& j = c.job;
+                j.mask = plan.maskId;
+                j.level = std::min<uint32_t>(levels[g][t], cap);
+                std::copy(p.X, p.X + 3, j.X);
+                std::copy(p.Y, p.Y + 3, j.Y);
+                j.margin = p.margin;
+                removePeriods(j.X, plan.mask->width(), plan.mask->sampler().wrapS);
+                removePeriods(j.Y, plan.mask->height(), plan.mask->sampler().wrapT);
+                c.hash = hashJob(j);
+                c.special = 0;
+              }
+              return b;
+            }) &
+            tbb::make_filter<PrepBlock*, void>(tbb::filter_mode::serial_in_order, [&](PrepBlock* b) {
+              for (uint32_t k = 0; k < b->count; ++k) {
+                const Candidate& c = b->c[k];
+                if (c.special) {
+                  pushRef(c.special, 0);
+                  continue;
+                }
+                const size_t known = jobs.size();
+                const uint32_t id = table.insert(c.job, c.hash, jobs);
+                uint32_t order = 0;
+                if (jobs.size() == known) {
+                  order = orderOf(c.job, jobs[id]);
+                  if (order != 0 && !(jobTwins[id] & (1u << order))) {
+                    jobTwins[id] = uint8_t(jobTwins[id] | (1u << order));
+                    twinsAfter.push_back({uint32_t(jobs.size() - 1), uint64_t(id) * 8 + order});
+                  }
+                } else {
+                  jobTwins.push_back(0);
+                }
+                pushRef(id, order);
+              }
+            }));
+  });
+  std::vector<PrepBlock>().swap(prep);
   table = JobTable{};
   std::vector<const AlphaMask*> masks;  // by mask id
   for (const MaterialPlan& p : ci.plans)

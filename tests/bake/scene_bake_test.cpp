@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <random>
+#include <set>
 #include <thread>
 
 #include "bake/bake_test_util.h"
@@ -358,6 +359,78 @@ TEST(BakeScene, VertexOrdersAcrossManyBatches) {
       EXPECT_EQ(r->classifiedTriangles, 3000u);
       expectSameArray(r->micromaps.arrays[0], expected);
     }
+  }
+}
+
+// The triangles' jobs are prepared in parallel blocks of scene order and enter the job table block by block: blocks
+// that end inside a geometry, geometries without triangles or without a texture between them, the same corners (in
+// any order) in far-apart geometries and blocks — the same array as baking each triangle on its own and adding the
+// maps in scene order, at every thread count.
+TEST(BakeScene, JobsPreparedInBlocksAcrossGeometries) {
+  const uint32_t W = 32, H = 32;
+  std::vector<uint8_t> binary = alpha8(W, H);
+  for (uint8_t& v : binary) v = v >= 128 ? 255 : 0;
+  Scene s;
+  for (int k = 0; k < 3; ++k) {
+    Material m;
+    m.name = "m" + std::to_string(k);
+    m.alphaMode = AlphaMode::Mask;
+    m.sampler = k == 2 ? Sampler{Wrap::ClampToEdge, Wrap::Repeat, Filter::Linear} : kSampler;
+    m.alpha = std::make_shared<AlphaTexture>(floatTexture(k == 1 ? binary : alpha8(W, H), W, H));
+    s.materials.push_back(m);
+  }
+  Material opaque;
+  opaque.name = "opaque";
+  s.materials.push_back(opaque);
+  // 300 distinct UV triangles on a 2^-12 grid (midpoints exact in any vertex order), drawn at random in random vertex
+  // orders into geometries of 0 to 2,500 triangles.
+  std::vector<float> pool = randomUvs(300, 17);
+  for (float& c : pool) c = std::round(c * 4096.0f) / 4096.0f;
+  const VertexOrder orders[6] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+  std::mt19937 rng(99);
+  const uint32_t sizes[] = {0, 1, 1023, 1025, 7, 0, 2500, 513, 64, 3}, materials[] = {0, 3, 0, 1, 3, 2, 1, 3, 0, 2};
+  std::set<std::pair<uint32_t, uint32_t>> jobs;  // (material, pool triangle): one classification each
+  for (uint32_t g = 0; g < std::size(sizes); ++g) {
+    std::vector<float> uv;
+    for (uint32_t t = 0; t < sizes[g]; ++t) {
+      const uint32_t p = uint32_t(rng() % 300), o = uint32_t(rng() % 6);
+      if (materials[g] != 3) jobs.insert({materials[g], p});
+      for (int k = 0; k < 3; ++k) {
+        uv.push_back(pool[6 * p + 2 * orders[o][k]]);
+        uv.push_back(pool[6 * p + 2 * orders[o][k] + 1]);
+      }
+    }
+    Geometry geo = geometryOf(uv, ("g" + std::to_string(g)).c_str());
+    geo.material = materials[g];
+    s.geometries.push_back(geo);
+  }
+  BakeOptions o;
+  o.level = 3;
+  OmmArrayBuilder own;
+  uint64_t unknown = 0;
+  for (const Geometry& geo : s.geometries) {
+    const Material& mat = s.materials[geo.material];
+    if (!mat.alpha) {
+      for (uint32_t t = 0; t < geo.triangleCount(); ++t) own.addSpecial(State::Opaque);
+      continue;
+    }
+    const AlphaMask mask(*mat.alpha, mat.sampler, mat.alphaCutoff);
+    for (uint32_t t = 0; t < geo.triangleCount(); ++t) {
+      const float* p = geo.uvs.data() + 6 * t;
+      const TriangleBake tb = bakeTriangle(mask, {p[0], p[1]}, {p[2], p[3]}, {p[4], p[5]}, o.level, o.format);
+      unknown += tb.unknownCount;
+      own.add(tb.map);
+    }
+  }
+  const OmmArray expected = own.finish();
+  for (uint32_t threads : {1u, 2u, 4u}) {
+    o.threads = threads;
+    auto r = bakeScene(s, o);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    // Each (mask, corner set) once, however often and in whichever vertex order it repeats.
+    EXPECT_EQ(r->classifiedTriangles, jobs.size());
+    EXPECT_EQ(r->total.unknownMicroTriangles, unknown);
+    expectSameArray(r->micromaps.arrays[0], expected);
   }
 }
 

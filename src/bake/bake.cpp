@@ -274,73 +274,75 @@ struct TriangleClassifier {
     return kMixed;  // also NaN
   }
 
-  // Range of f = A + Bx + Cy + Dxy over the convex polygon (px, py): its vertices and the stationary points
-  // of its restriction to each edge.
-  static void polygonRange(double A, double B, double C, double D, const double* px, const double* py, int n,
-                           double& lo, double& hi) noexcept {
-    auto f = [&](double x, double y) { return A + B * x + C * y + D * x * y; };
-    lo = std::numeric_limits<double>::infinity();
-    hi = -lo;
-    for (int q = 0; q < n; ++q) {
-      const double v = f(px[q], py[q]);
-      lo = std::min(lo, v);
-      hi = std::max(hi, v);
-      const int q1 = q + 1 == n ? 0 : q + 1;
-      const double ex = px[q1] - px[q], ey = py[q1] - py[q];
-      // f along the edge: v + c1·t + c2·t², stationary at t = −c1 / (2·c2) with value v − c1² / (4·c2).
-      const double c2 = D * ex * ey, c1 = B * ex + C * ey + D * (px[q] * ey + py[q] * ex);
-      if ((c1 < 0) != (c2 < 0) && std::fabs(c1) < 2 * std::fabs(c2)) {
-        const double w = v - c1 * c1 / (4 * c2);
-        lo = std::min(lo, w);
-        hi = std::max(hi, w);
-      }
-    }
-    if (std::isnan(lo) || std::isnan(hi)) lo = hi = std::numeric_limits<double>::quiet_NaN();
-  }
-
-  // The exact-per-cell bound: T (cell-local) clipped to [−m, 1 + m]² (Sutherland–Hodgman), then polygonRange.
+  // The exact-per-cell bound: the range of f over P = T ∩ [−m, 1 + m]² (cell-local). A bilinear function takes its
+  // extremes over a convex polygon at a vertex or where its restriction to an edge is stationary; P's vertices are T's
+  // vertices in the square, the square's corners in T and where T's edges cross the square's sides, and along the
+  // square's sides f is linear. So the range is that of: each edge of T clipped to the square (Liang–Barsky: its ends
+  // and, when inside, the stationary point of the quadratic along it), and the corners of the square inside T.
   unsigned clippedCell(double A, double B, double C, double D, const double tx[3], const double ty[3],
                        double grow, float cutoff, double tol) const noexcept {
-    const double m = margin;
-    double buf[2][2][48];  // each clip at most doubles the count (3 · 2^4)
-    double *px = buf[0][0], *py = buf[0][1], *qx = buf[1][0], *qy = buf[1][1];
-    int n = 3;
-    std::copy(tx, tx + 3, px);
-    std::copy(ty, ty + 3, py);
-    for (int side = 0; side < 4 && n > 0; ++side) {
-      const bool isX = side < 2;
-      const double c = (side & 1) ? 1 + m : -m;
-      const double sign = (side & 1) ? -1.0 : 1.0;  // inside: sign · (coord − c) >= 0
-      // Each vertex's signed distance once; when every vertex is inside this side the clip would copy the polygon as it
-      // is (the same vertices, the same order).
-      double d[48];
-      bool allInside = true;
-      for (int q = 0; q < n; ++q) {
-        d[q] = sign * ((isX ? px[q] : py[q]) - c);
-        allInside = allInside && d[q] >= 0;
+    const double s0 = -margin, s1 = 1 + margin;
+    auto f = [&](double x, double y) { return A + B * x + C * y + D * x * y; };
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    bool any = false;
+    for (int k = 0; k < 3; ++k) {
+      const int k1 = k == 2 ? 0 : k + 1;
+      const double x0 = tx[k], y0 = ty[k], ex = tx[k1] - x0, ey = ty[k1] - y0;
+      // The edge's parameter interval [t0, t1] inside the square, and the ends' coordinates (exact on a side).
+      double t0 = 0, t1 = 1;
+      double ax = x0, ay = y0, bx = tx[k1], by = ty[k1];
+      if (x0 < s0 || x0 > s1 || bx < s0 || bx > s1) {
+        if (ex == 0) continue;  // a vertical edge outside the slab
+        const double ta = (s0 - x0) / ex, tb = (s1 - x0) / ex;
+        const double tl = std::min(ta, tb), th = std::max(ta, tb);
+        if (tl > t0) t0 = tl, ax = ex > 0 ? s0 : s1, ay = y0 + tl * ey;
+        if (th < t1) t1 = th, bx = ex > 0 ? s1 : s0, by = y0 + th * ey;
+        if (!(t0 <= t1)) continue;
       }
-      if (allInside) continue;
-      int o = 0;
-      for (int q = 0; q < n; ++q) {
-        const int q1 = q + 1 == n ? 0 : q + 1;
-        const double d0 = d[q], d1 = d[q1];
-        if (d0 >= 0) {
-          qx[o] = px[q];
-          qy[o++] = py[q];
-        }
-        if ((d0 >= 0) != (d1 >= 0)) {
-          const double u = d0 / (d0 - d1);
-          qx[o] = isX ? c : px[q] + u * (px[q1] - px[q]);
-          qy[o++] = isX ? py[q] + u * (py[q1] - py[q]) : c;
+      if (ay < s0 || ay > s1 || by < s0 || by > s1) {
+        if (ey == 0) continue;
+        const double ta = (s0 - y0) / ey, tb = (s1 - y0) / ey;
+        const double tl = std::min(ta, tb), th = std::max(ta, tb);
+        if (tl > t0) t0 = tl, ay = ey > 0 ? s0 : s1, ax = x0 + tl * ex;
+        if (th < t1) t1 = th, by = ey > 0 ? s1 : s0, bx = x0 + th * ex;
+        if (!(t0 <= t1)) continue;
+      }
+      any = true;
+      const double va = f(ax, ay), vb = f(bx, by);
+      lo = std::min(lo, std::min(va, vb));
+      hi = std::max(hi, std::max(va, vb));
+      // f along the edge: v0 + c1·t + c2·t², stationary at t = −c1 / (2·c2) with value v0 − c1² / (4·c2).
+      const double c2 = D * ex * ey, c1 = B * ex + C * ey + D * (x0 * ey + y0 * ex);
+      if (c2 != 0) {
+        const double t = -c1 / (2 * c2);
+        if (t > t0 && t < t1) {
+          const double w = f(x0, y0) - c1 * c1 / (4 * c2);
+          lo = std::min(lo, w);
+          hi = std::max(hi, w);
         }
       }
-      n = o;
-      std::swap(px, qx);
-      std::swap(py, qy);
     }
-    if (n == 0) return 0;  // T does not come within m of the cell
-    double lo, hi;
-    polygonRange(A, B, C, D, px, py, n, lo, hi);
+    // The square's corners inside T (T of non-zero area; on an edge they are points of that edge's clipped part).
+    const double area2 = (tx[1] - tx[0]) * (ty[2] - ty[0]) - (ty[1] - ty[0]) * (tx[2] - tx[0]);
+    if (area2 != 0) {
+      for (int c = 0; c < 4; ++c) {
+        const double cx = (c & 1) ? s1 : s0, cy = (c & 2) ? s1 : s0;
+        bool inside = true;
+        for (int k = 0; k < 3 && inside; ++k) {
+          const int k1 = k == 2 ? 0 : k + 1;
+          const double e = (tx[k1] - tx[k]) * (cy - ty[k]) - (ty[k1] - ty[k]) * (cx - tx[k]);
+          inside = area2 > 0 ? e >= 0 : e <= 0;
+        }
+        if (inside) {
+          any = true;
+          const double v = f(cx, cy);
+          lo = std::min(lo, v);
+          hi = std::max(hi, v);
+        }
+      }
+    }
+    if (!any) return 0;  // T does not come within m of the cell
+    if (std::isnan(lo) || std::isnan(hi)) return kMixed;
     return decide(lo - grow, hi + grow, cutoff, tol);
   }
 

@@ -206,7 +206,11 @@ struct TriangleClassifier {
     return x0 >= 0 && y0 >= 0 && x1 < tw && y1 < th && x1 - x0 < 63;
   }
 
-  unsigned rect(int64_t i0, int64_t i1, int64_t j0, int64_t j1) const noexcept {
+  // The texels [i0, i1 + ext] × [j0, j1 + ext]: kPass / kFail / kMixed. `rows` (optional, kBitRows + 1 words): where
+  // the rows' pass bits are kept (row j0 + r in rows[r], bit k = texel i0 + k, the bits beyond i1 + ext clear) when
+  // they are read from the pass bits; `*kept` says whether they were.
+  unsigned rect(int64_t i0, int64_t i1, int64_t j0, int64_t j1, uint64_t* rows = nullptr,
+                bool* kept = nullptr) const noexcept {
     if (bitsHold(i0, i1 + ext, j0, j1 + ext) && j1 - j0 < kBitRows) {
       // The same texels as the passFail query, from their pass bits row by row.
       const uint64_t full = (uint64_t(2) << (i1 + ext - i0)) - 1;
@@ -216,11 +220,14 @@ struct TriangleClassifier {
       const uint32_t s = uint32_t(i0) & 63u;
       for (int64_t y = j0; y <= j1 + ext; ++y, word += rowWords) {
         const uint64_t b = AlphaMask::passBitsAt(word, s) & full;
+        if (rows) rows[y - j0] = b;
         any |= b;
         all &= b;
       }
+      if (kept) *kept = rows != nullptr;
       return (any ? kPass : 0u) | (all != full ? kFail : 0u);
     }
+    if (kept) *kept = false;
     static_assert(kPass == 1 && kFail == 2, "passFail's bits are the classes");
     return mask.passFail(i0, i1 + ext, j0, j1 + ext);
   }
@@ -355,12 +362,14 @@ struct TriangleClassifier {
     const double m = margin;
     const int64_t i0 = cellFloor(min3(X) - m), i1 = cellFloor(max3(X) + m);
     const int64_t j0 = cellFloor(min3(Y) - m), j1 = cellFloor(max3(Y) + m);
-    const unsigned box = rect(i0, i1, j0, j1);
+    uint64_t rows[kBitRows + 1];
+    bool kept = false;
+    const unsigned box = rect(i0, i1, j0, j1, rows, &kept);
     if (box != kMixed) return box;
     // A region holding a whole period reads every texel, which pass and fail (box is mixed): O(1) however large.
     if (holdsPeriod(X, Y)) return kMixed;
     if (ext && i1 - i0 < cellLimit && j1 - j0 < cellLimit && (i1 - i0 + 1) * (j1 - j0 + 1) <= cellLimit)
-      return bilinearCells(X, Y, i0, i1, j0, j1, innerNode);
+      return bilinearCells(X, Y, i0, i1, j0, j1, innerNode, kept ? rows : nullptr);
     if (j0 == j1) return box;
     if (j1 - j0 > kMaxRows) return kMixed;
     // Exact: per row of cells, the x-extent of the grown triangle within the row.
@@ -438,8 +447,10 @@ struct TriangleClassifier {
   // [i0, i1] × [j0, j1]: the cells of the grown bounding box.
   // Work: a unit per cell of each row run whose corners disagree, or (`perRow`: an inner node's test, in place of the
   // four-corner row walk's unit per row) a unit per such run.
+  // `rows`: the box's pass bits as rect() kept them (null: read them here): every row run [a, b] of row j lies in
+  // the box, so its corners' bits are rows[j − j0] and rows[j + 1 − j0] from bit a − i0 on.
   unsigned bilinearCells(const double X[3], const double Y[3], int64_t i0, int64_t i1, int64_t j0, int64_t j1,
-                         bool perRow = false) const noexcept {
+                         bool perRow = false, const uint64_t* rows = nullptr) const noexcept {
     const double m = margin;
     const Sampler& smp = mask.sampler();
     const float cutoff = mask.cutoff();
@@ -458,12 +469,18 @@ struct TriangleClassifier {
         a = cellFloor(xl - m);
         b = cellFloor(xr + m);
       }
-      if (bitsHold(a, b + 1, j, j + 1)) {
+      if (rows || bitsHold(a, b + 1, j, j + 1)) {
         // Inside the texture: the run's corners from the pass bits of its two rows (read once), as rect() would.
-        const uint64_t* word = mask.passWord(uint32_t(a), uint32_t(j));
-        const uint32_t s = uint32_t(a) & 63u;
-        const uint64_t ra = AlphaMask::passBitsAt(word, s),
-                       rb = AlphaMask::passBitsAt(word + mask.passRowWords(), s);
+        uint64_t ra, rb;
+        if (rows) {
+          ra = rows[j - j0] >> (a - i0);
+          rb = rows[j + 1 - j0] >> (a - i0);
+        } else {
+          const uint64_t* word = mask.passWord(uint32_t(a), uint32_t(j));
+          const uint32_t s = uint32_t(a) & 63u;
+          ra = AlphaMask::passBitsAt(word, s);
+          rb = AlphaMask::passBitsAt(word + mask.passRowWords(), s);
+        }
         if (b - a >= 2) {
           // A run whose corner texels all agree decides all its cells (each by its four corners) in O(1).
           const uint64_t full = (uint64_t(2) << (b + 1 - a)) - 1;

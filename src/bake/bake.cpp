@@ -1328,87 +1328,84 @@ Status bakePass(const CoreInputs& ci, const std::vector<std::vector<uint8_t>>& l
   arena.execute([&] {
     tbb::parallel_pipeline(
         prep.size(),
-        tbb::make_filter<void, PrepBlock*>(tbb::filter_mode::serial_in_order,
-                                           [&](tbb::flow_control& fc) -> PrepBlock* {
-                                             while (pg < in.geometryCount && pt == in.geometries[pg].triangleCount) {
-                                               ++pg;
-                                               pt = 0;
-                                             }
-                                             if (pg >= in.geometryCount) {
-                                               fc.stop();
-                                               return nullptr;
-                                             }
-                                             PrepBlock* b = &prep[prepIssued++ % prep.size()];
-                                             b->g = pg;
-                                             b->t = pt;
-                                             b->count = 0;
-                                             // Whole geometries and parts of them, kPrepBlock triangles in all.
-                                             while (pg < in.geometryCount && b->count < kPrepBlock) {
-                                               const uint32_t n = std::min(in.geometries[pg].triangleCount - pt,
-                                                                           kPrepBlock - b->count);
-                                               b->count += n;
-                                               pt += n;
-                                               if (pt == in.geometries[pg].triangleCount) {
-                                                 ++pg;
-                                                 pt = 0;
-                                               }
-                                             }
-                                             return b;
-                                           }) &
-            tbb::make_filter<PrepBlock*, PrepBlock*>(tbb::filter_mode::parallel, [&](PrepBlock* b) {
-              if (b->c.size() < b->count) b->c.resize(b->count);
-              uint32_t g = b->g, t = b->t;
-              for (uint32_t k = 0; k < b->count; ++k, ++t) {
-                while (t == in.geometries[g].triangleCount) ++g, t = 0;
-                const GeometryInput& gi = in.geometries[g];
-                const MaterialPlan& plan = ci.plans[gi.material];
-                Candidate& c = b->c[k];
-                if (!plan.mask) {
-                  c.special = kSpecialBit | (plan.allUnknown ? kAllUnknownBit : 0u) | uint32_t(plan.state);
-                  continue;
-                }
-                const GeometryReader r{gi};
-                Prepared p;
-                prepare(*plan.mask, r.corner(t, 0), r.corner(t, 1), r.corner(t, 2), p);
-                if (!p.usable) {
-                  c.special = kSpecialBit | kNonFiniteBit | uint32_t(wholeUnknown(o.format, o.unknownAs));
-                  continue;
-                }
-                Job& j = c.job;
-                j.mask = plan.maskId;
-                j.level = std::min<uint32_t>(levels[g][t], cap);
-                std::copy(p.X, p.X + 3, j.X);
-                std::copy(p.Y, p.Y + 3, j.Y);
-                j.margin = p.margin;
-                removePeriods(j.X, plan.mask->width(), plan.mask->sampler().wrapS);
-                removePeriods(j.Y, plan.mask->height(), plan.mask->sampler().wrapT);
-                c.hash = hashJob(j);
-                c.special = 0;
+        tbb::make_filter<
+            void, PrepBlock*>(tbb::filter_mode::serial_in_order, [&](tbb::flow_control& fc) -> PrepBlock* {
+          while (pg < in.geometryCount && pt == in.geometries[pg].triangleCount) {
+            ++pg;
+            pt = 0;
+          }
+          if (pg >= in.geometryCount) {
+            fc.stop();
+            return nullptr;
+          }
+          PrepBlock* b = &prep[prepIssued++ % prep.size()];
+          b->g = pg;
+          b->t = pt;
+          b->count = 0;
+          // Whole geometries and parts of them, kPrepBlock triangles in all.
+          while (pg < in.geometryCount && b->count < kPrepBlock) {
+            const uint32_t n = std::min(in.geometries[pg].triangleCount - pt, kPrepBlock - b->count);
+            b->count += n;
+            pt += n;
+            if (pt == in.geometries[pg].triangleCount) {
+              ++pg;
+              pt = 0;
+            }
+          }
+          return b;
+        }) & tbb::make_filter<PrepBlock*, PrepBlock*>(tbb::filter_mode::parallel, [&](PrepBlock* b) {
+          if (b->c.size() < b->count) b->c.resize(b->count);
+          uint32_t g = b->g, t = b->t;
+          for (uint32_t k = 0; k < b->count; ++k, ++t) {
+            while (t == in.geometries[g].triangleCount) ++g, t = 0;
+            const GeometryInput& gi = in.geometries[g];
+            const MaterialPlan& plan = ci.plans[gi.material];
+            Candidate& c = b->c[k];
+            if (!plan.mask) {
+              c.special = kSpecialBit | (plan.allUnknown ? kAllUnknownBit : 0u) | uint32_t(plan.state);
+              continue;
+            }
+            const GeometryReader r{gi};
+            Prepared p;
+            prepare(*plan.mask, r.corner(t, 0), r.corner(t, 1), r.corner(t, 2), p);
+            if (!p.usable) {
+              c.special = kSpecialBit | kNonFiniteBit | uint32_t(wholeUnknown(o.format, o.unknownAs));
+              continue;
+            }
+            Job& j = c.job;
+            j.mask = plan.maskId;
+            j.level = std::min<uint32_t>(levels[g][t], cap);
+            std::copy(p.X, p.X + 3, j.X);
+            std::copy(p.Y, p.Y + 3, j.Y);
+            j.margin = p.margin;
+            removePeriods(j.X, plan.mask->width(), plan.mask->sampler().wrapS);
+            removePeriods(j.Y, plan.mask->height(), plan.mask->sampler().wrapT);
+            c.hash = hashJob(j);
+            c.special = 0;
+          }
+          return b;
+        }) & tbb::make_filter<PrepBlock*, void>(tbb::filter_mode::serial_in_order, [&](PrepBlock* b) {
+          for (uint32_t k = 0; k < b->count; ++k) {
+            const Candidate& c = b->c[k];
+            if (c.special) {
+              pushRef(c.special, 0);
+              continue;
+            }
+            const size_t known = jobs.size();
+            const uint32_t id = table.insert(c.job, c.hash, jobs);
+            uint32_t order = 0;
+            if (jobs.size() == known) {
+              order = orderOf(c.job, jobs[id]);
+              if (order != 0 && !(jobTwins[id] & (1u << order))) {
+                jobTwins[id] = uint8_t(jobTwins[id] | (1u << order));
+                twinsAfter.push_back({uint32_t(jobs.size() - 1), uint64_t(id) * 8 + order});
               }
-              return b;
-            }) &
-            tbb::make_filter<PrepBlock*, void>(tbb::filter_mode::serial_in_order, [&](PrepBlock* b) {
-              for (uint32_t k = 0; k < b->count; ++k) {
-                const Candidate& c = b->c[k];
-                if (c.special) {
-                  pushRef(c.special, 0);
-                  continue;
-                }
-                const size_t known = jobs.size();
-                const uint32_t id = table.insert(c.job, c.hash, jobs);
-                uint32_t order = 0;
-                if (jobs.size() == known) {
-                  order = orderOf(c.job, jobs[id]);
-                  if (order != 0 && !(jobTwins[id] & (1u << order))) {
-                    jobTwins[id] = uint8_t(jobTwins[id] | (1u << order));
-                    twinsAfter.push_back({uint32_t(jobs.size() - 1), uint64_t(id) * 8 + order});
-                  }
-                } else {
-                  jobTwins.push_back(0);
-                }
-                pushRef(id, order);
-              }
-            }));
+            } else {
+              jobTwins.push_back(0);
+            }
+            pushRef(id, order);
+          }
+        }));
   });
   std::vector<PrepBlock>().swap(prep);
   table = JobTable{};

@@ -388,7 +388,8 @@ TEST(BakeScene, JobsPreparedInBlocksAcrossGeometries) {
   for (float& c : pool) c = std::round(c * 4096.0f) / 4096.0f;
   const VertexOrder orders[6] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
   std::mt19937 rng(99);
-  const uint32_t sizes[] = {0, 1, 1023, 1025, 7, 0, 2500, 513, 64, 3}, materials[] = {0, 3, 0, 1, 3, 2, 1, 3, 0, 2};
+  const uint32_t sizes[] = {0, 1, 1023, 1025, 7, 0, 2500, 513, 64, 3},
+                 materials[] = {0, 3, 0, 1, 3, 2, 1, 3, 0, 2};
   std::set<std::pair<uint32_t, uint32_t>> jobs;  // (material, pool triangle): one classification each
   for (uint32_t g = 0; g < std::size(sizes); ++g) {
     std::vector<float> uv;

@@ -493,6 +493,12 @@ inline uint32_t sdagRefBits(const uint8_t* p, uint32_t pos, uint32_t n, uint32_t
   const uint32_t g = popcount64(getBits(p, pos + n, n - s));
   return n + (n - s) + (tier - 1u) * s + (mid - 1u) * g + w * (n - s - g);
 }
+// State `slot` (< 16) of a leaf (16 states, 2 or 4 bytes): one load and a shift.
+template <Format F>
+SOMM_ENCODE_INLINE State sdagLeafState(const uint8_t* leaf, uint32_t slot) noexcept {
+  if constexpr (F == Format::TwoState) return State((load16(leaf) >> slot) & 1u);
+  return State((load32(leaf) >> (2u * slot)) & 3u);
+}
 // The walk, specialised per format and record height (unrolled: shifts, regions and state widths are
 // constants). Step of a node record of height H >= 2 at p: index bits [4(H-1), 4H) pick the child.
 template <Format F, uint32_t H>
@@ -506,7 +512,7 @@ SOMM_ENCODE_INLINE State sdagNodeStep(const uint8_t* data, const SdagDirectory& 
   const uint8_t* c = data + sdagChildAt(dir, p, uint32_t(p - data), 32u - n, n, below, k,
                                         H == 2 ? 2u * b : 0u, sdagNodeFlags(p, n));
   if constexpr (H == 2) {
-    return getValue(c, 0, F, index & 15u);
+    return sdagLeafState<F>(c, index & 15u);
   } else {
     return sdagNodeStep<F, H - 1>(data, dir, c, index);
   }
@@ -516,7 +522,7 @@ inline State sdagNodeWalk(const uint8_t* data, const SdagDirectory& dir, const u
                           uint32_t index) noexcept {
   switch (h) {
     case 1:
-      return getValue(p, 0, F, index & 15u);
+      return sdagLeafState<F>(p, index & 15u);
     case 2:
       return sdagNodeStep<F, 2>(data, dir, p, index);
     case 3:
@@ -597,21 +603,38 @@ inline SdagMemo::Entry& sdagMemoEntry(uint32_t triangle) noexcept {
 }
 // The state at `index` of a memo entry's DAG map (kind 0): the walk from the root's child covering `index`, taken
 // from the entry (or found and kept there), for maps of level >= 4; from the root below that.
+// The root's child covering `index` (see sdagMemoWalk), found and kept in the entry: out of line, so that the walk's
+// common path (the child already kept) needs few registers.
+template <Format F>
+SOMM_ENCODE_COLD uint32_t sdagMemoTop(const uint8_t* data, const SdagDirectory& dir, SdagMemo::Entry& e,
+                                      uint32_t slot, uint32_t index) noexcept {
+  const uint32_t level = e.level;
+  const uint32_t at = (level & 1u) ? sdagRootChild<F>(data, dir, e.root, level, index)
+                                   : sdagStepDown<F>(data, dir, e.root, level >> 1, index);
+  e.top[slot] = at;
+  e.topValid = uint16_t(e.topValid | (1u << slot));
+  return at;
+}
+// Maps of level < 4 (no kept children): from the root, out of line.
+template <Format F>
+SOMM_ENCODE_COLD State sdagSmallState(const uint8_t* data, const SdagDirectory& dir, uint32_t root,
+                                      uint32_t level, uint32_t index) noexcept {
+  return sdagStateAs<F>(data, dir, root, level, index);
+}
 template <Format F>
 SOMM_ENCODE_INLINE State sdagMemoWalk(const uint8_t* data, const SdagDirectory& dir, SdagMemo::Entry& e,
                                       uint32_t index) noexcept {
   const uint32_t level = e.level;
-  if (level < 4) return sdagStateAs<F>(data, dir, e.root, level, index);
+  if (level < 4) return sdagSmallState<F>(data, dir, e.root, level, index);
   const uint32_t odd = level & 1u, slot = index >> (2u * level - 4u + 2u * odd);  // 4-way root: 2 bits
-  uint32_t at = e.top[slot];
-  if (!((e.topValid >> slot) & 1u)) {
-    at = odd ? sdagRootChild<F>(data, dir, e.root, level, index)
-             : sdagStepDown<F>(data, dir, e.root, level >> 1, index);
-    e.top[slot] = at;
-    e.topValid = uint16_t(e.topValid | (1u << slot));
-  }
+  const uint32_t at = ((e.topValid >> slot) & 1u) ? e.top[slot] : sdagMemoTop<F>(data, dir, e, slot, index);
   if (at < 4) return State(at);
-  return sdagNodeWalk<F>(data, dir, data + at, (level >> 1) - 1u + odd, index);  // the child's height
+  const uint32_t h = (level >> 1) - 1u + odd;  // the child's height
+  // Levels 8 to 10 (a child of height 3 or 4) walked in line: no call, no jump on the height. (Height 5 too cost
+  // registers: levels 8 and 10 took 2 % more instructions.)
+  if (h == 3) return sdagNodeStep<F, 3>(data, dir, data + at, index);
+  if (h == 4) return sdagNodeStep<F, 4>(data, dir, data + at, index);
+  return sdagNodeWalk<F>(data, dir, data + at, h, index);
 }
 
 inline State sdagState(const uint8_t* data, const SdagDirectory& dir, uint32_t offset, uint32_t level,

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <random>
 #include <set>
+#include <string>
 #include <thread>
 
 #include "bake/bake_test_util.h"
@@ -34,6 +35,25 @@ AlphaTexture floatTexture(const std::vector<uint8_t>& a, uint32_t w, uint32_t h)
   t.height = h;
   for (uint8_t v : a) t.alpha.push_back(float(double(v) / 255.0));
   return t;
+}
+
+// alpha8 thresholded at 128 to 0 / 255: a binary mask (under the linear filter the unknown band's majorities often
+// tie).
+std::vector<uint8_t> binaryAlpha8(uint32_t w, uint32_t h) {
+  std::vector<uint8_t> a = alpha8(w, h);
+  for (uint8_t& v : a) v = v >= 128 ? 255 : 0;
+  return a;
+}
+
+// An alpha-tested (MASK) material reading the w × h alphas `a`.
+Material maskMaterial(const std::string& name, const Sampler& sampler, const std::vector<uint8_t>& a,
+                      uint32_t w, uint32_t h) {
+  Material m;
+  m.name = name;
+  m.alphaMode = AlphaMode::Mask;
+  m.sampler = sampler;
+  m.alpha = std::make_shared<AlphaTexture>(floatTexture(a, w, h));
+  return m;
 }
 
 std::vector<float> randomUvs(uint32_t triangles, uint32_t seed) {
@@ -234,17 +254,9 @@ TEST(BakeScene, SceneArrayEqualsMergedPerGeometryBakes) {
 TEST(BakeScene, VertexOrdersShareOneClassification) {
   const uint32_t W = 32, H = 32;
   // A binary mask (alpha 0 or 1: under the linear filter the unknown band's majorities often tie) and a soft one.
-  std::vector<uint8_t> binary = alpha8(W, H);
-  for (uint8_t& v : binary) v = v >= 128 ? 255 : 0;
   Scene s;
-  for (int k = 0; k < 2; ++k) {
-    Material m;
-    m.name = k ? "soft" : "binary";
-    m.alphaMode = AlphaMode::Mask;
-    m.sampler = kSampler;
-    m.alpha = std::make_shared<AlphaTexture>(floatTexture(k ? alpha8(W, H) : binary, W, H));
-    s.materials.push_back(m);
-  }
+  s.materials.push_back(maskMaterial("binary", kSampler, binaryAlpha8(W, H), W, H));
+  s.materials.push_back(maskMaterial("soft", kSampler, alpha8(W, H), W, H));
   // UVs on a 2^-12 grid: every midpoint of the subdivision is exact, in any vertex order.
   std::vector<float> base = randomUvs(40, 21);
   for (float& c : base) c = std::round(c * 4096.0f) / 4096.0f;
@@ -368,17 +380,11 @@ TEST(BakeScene, VertexOrdersAcrossManyBatches) {
 // maps in scene order, at every thread count.
 TEST(BakeScene, JobsPreparedInBlocksAcrossGeometries) {
   const uint32_t W = 32, H = 32;
-  std::vector<uint8_t> binary = alpha8(W, H);
-  for (uint8_t& v : binary) v = v >= 128 ? 255 : 0;
   Scene s;
-  for (int k = 0; k < 3; ++k) {
-    Material m;
-    m.name = "m" + std::to_string(k);
-    m.alphaMode = AlphaMode::Mask;
-    m.sampler = k == 2 ? Sampler{Wrap::ClampToEdge, Wrap::Repeat, Filter::Linear} : kSampler;
-    m.alpha = std::make_shared<AlphaTexture>(floatTexture(k == 1 ? binary : alpha8(W, H), W, H));
-    s.materials.push_back(m);
-  }
+  s.materials.push_back(maskMaterial("m0", kSampler, alpha8(W, H), W, H));
+  s.materials.push_back(maskMaterial("m1", kSampler, binaryAlpha8(W, H), W, H));
+  s.materials.push_back(
+      maskMaterial("m2", Sampler{Wrap::ClampToEdge, Wrap::Repeat, Filter::Linear}, alpha8(W, H), W, H));
   Material opaque;
   opaque.name = "opaque";
   s.materials.push_back(opaque);

@@ -433,6 +433,13 @@ SOMM_ENCODE_INLINE SdagRefClass sdagLeafRefClass(const uint8_t* p, uint32_t pos,
   }
   const uint32_t fl = uint32_t(x) & ((1u << n) - 1u), s = popcount16(fl & below), q = i - s;
   const uint32_t isShort = (fl >> i) & 1u, r = n - popcount16(fl);
+  if (mid == 0) {  // no mid class (no G): the H flags follow F, one per reference that is not short
+    const uint32_t hh = uint32_t(x >> n) & ((1u << r) - 1u), hb = popcount16(hh & ((1u << q) - 1u));
+    const uint32_t isLocal = (hh >> q) & 1u & (isShort ^ 1u), sw = tier - 1u;
+    const uint32_t ref =
+        getBits(p, pos + n + r + sw * s + w * (q - hb), sdagPick(isShort, sw, sdagPick(isLocal, 0u, w)));
+    return {sdagPick(isLocal, popcount16(hh) - hb, ref), isLocal};
+  }
   const uint32_t gn = mid != 0 ? r : 0u;  // G's length
   const uint32_t g = uint32_t(x >> n) & ((1u << gn) - 1u), gb = popcount16(g & ((1u << q) - 1u));
   const uint32_t isMid = (g >> q) & 1u & (isShort ^ 1u), r2 = r - popcount16(g), o = q - gb;

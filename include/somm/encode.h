@@ -608,8 +608,6 @@ inline SdagMemo& sdagMemo() noexcept {
 inline SdagMemo::Entry& sdagMemoEntry(uint32_t triangle) noexcept {
   return sdagMemo().entry[(triangle * 0x9e3779b1u) >> 24];
 }
-// The state at `index` of a memo entry's DAG map (kind 0): the walk from the root's child covering `index`, taken
-// from the entry (or found and kept there), for maps of level >= 4; from the root below that.
 // The root's child covering `index` (see sdagMemoWalk), found and kept in the entry: out of line, so that the walk's
 // common path (the child already kept) needs few registers.
 template <Format F>
@@ -628,6 +626,8 @@ SOMM_ENCODE_COLD State sdagSmallState(const uint8_t* data, const SdagDirectory& 
                                       uint32_t level, uint32_t index) noexcept {
   return sdagStateAs<F>(data, dir, root, level, index);
 }
+// The state at `index` of a memo entry's DAG map (kind 0): the walk from the root's child covering `index`, taken
+// from the entry (or found and kept there), for maps of level >= 4; from the root below that.
 template <Format F>
 SOMM_ENCODE_INLINE State sdagMemoWalk(const uint8_t* data, const SdagDirectory& dir, SdagMemo::Entry& e,
                                       uint32_t index) noexcept {

@@ -433,13 +433,6 @@ SOMM_ENCODE_INLINE SdagRefClass sdagLeafRefClass(const uint8_t* p, uint32_t pos,
   }
   const uint32_t fl = uint32_t(x) & ((1u << n) - 1u), s = popcount16(fl & below), q = i - s;
   const uint32_t isShort = (fl >> i) & 1u, r = n - popcount16(fl);
-  if (mid == 0) {  // no mid class (no G): the H flags follow F, one per reference that is not short
-    const uint32_t hh = uint32_t(x >> n) & ((1u << r) - 1u), hb = popcount16(hh & ((1u << q) - 1u));
-    const uint32_t isLocal = (hh >> q) & 1u & (isShort ^ 1u), sw = tier - 1u;
-    const uint32_t ref =
-        getBits(p, pos + n + r + sw * s + w * (q - hb), sdagPick(isShort, sw, sdagPick(isLocal, 0u, w)));
-    return {sdagPick(isLocal, popcount16(hh) - hb, ref), isLocal};
-  }
   const uint32_t gn = mid != 0 ? r : 0u;  // G's length
   const uint32_t g = uint32_t(x >> n) & ((1u << gn) - 1u), gb = popcount16(g & ((1u << q) - 1u));
   const uint32_t isMid = (g >> q) & 1u & (isShort ^ 1u), r2 = r - popcount16(g), o = q - gb;
@@ -519,14 +512,16 @@ SOMM_ENCODE_INLINE const uint8_t* sdagLocalLeaf(const uint8_t* data, const SdagD
   constexpr uint32_t leafBytes = F == Format::TwoState ? 2u : 4u, k = sdagRegion(F, 1);
   const uint32_t fl = uint32_t(x) & ((1u << n) - 1u), s = popcount16(fl & ((1u << i) - 1u));
   const uint32_t isShort = (fl >> i) & 1u, r = n - popcount16(fl), q = i - s;
-  uint32_t gl = 0, gb = 0, isMid = 0;  // G's length, its set bits before reference q, bit q
+  // G's length, its set bits before reference q, bit q; r2: the references neither short nor mid (H's length)
+  uint32_t gl = 0, gb = 0, isMid = 0, r2 = r;
   if constexpr (kMid) {
     const uint32_t g = uint32_t(x >> n) & ((1u << r) - 1u);
     gl = r;
     gb = popcount16(g & ((1u << q) - 1u));
     isMid = (g >> q) & 1u & (isShort ^ 1u);
+    r2 = r - popcount16(g);
   }
-  const uint32_t r2 = kMid ? r - popcount16(uint32_t(x >> n) & ((1u << r) - 1u)) : r, o = q - gb;
+  const uint32_t o = q - gb;
   const uint32_t hh = uint32_t(x >> (n + gl)) & ((1u << r2) - 1u), hb = popcount16(hh & ((1u << o) - 1u));
   if ((hh >> o) & 1u & ((isShort | isMid) ^ 1u))
     return p - (popcount16(hh) - hb) * leafBytes;  // a local leaf

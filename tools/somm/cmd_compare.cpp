@@ -110,8 +110,7 @@ void printSdagAnalysis(const somm::EncodedArray& a) {
   const uint32_t nLeaves = uint32_t(leafNo.size());
   std::vector<uint64_t> leafUse(nLeaves, 0);
   std::vector<std::vector<uint64_t>> leafUseSlot(16, std::vector<uint64_t>(nLeaves, 0));
-  uint64_t recs = 0, maskBits = 0, stateBits = 0, flagBits = 0, refBits = 0, padBits = 0, stHist[4] = {},
-           only01 = 0, save01 = 0;
+  uint64_t recs = 0, maskBits = 0, stateBits = 0, flagBits = 0, refBits = 0, padBits = 0, stHist[2] = {};
   std::map<std::pair<uint32_t, uint64_t>, uint32_t> shapes;
   for (const SdagRecordInfo& rec : all) {
     if (rec.height != 2) continue;
@@ -119,17 +118,12 @@ void printSdagAnalysis(const somm::EncodedArray& a) {
     const uint8_t* p = data + off;
     const uint32_t m = load16(p), n = popcount64(m);
     const uint32_t pos = 32 - n, w = dir.width[k1], t = dir.tier[k1], u = dir.mid[k1];
+    // The uniform children's states: 1 bit each (0 transparent, 1 opaque; a uniformly unknown child is a node).
     uint64_t st = 0;
-    bool o01 = true;
     for (uint32_t i = 0; i < 16 - n; ++i) {
       const uint32_t s = getBit(p, 16 + i);
       ++stHist[s];
-      o01 = o01 && s < 2;
-      st |= uint64_t(s) << (2 * i);
-    }
-    if (o01) {
-      ++only01;
-      save01 += 16 - n;
+      st |= uint64_t(s) << i;
     }
     ++shapes[{m, st}];
     uint32_t slot = 0, j = 0;
@@ -166,14 +160,11 @@ void printSdagAnalysis(const somm::EncodedArray& a) {
     if (v != (v ^ 0x55555555u) && leafSet.count(v ^ 0x55555555u)) ++compl1;
   std::fprintf(
       stderr,
-      "h2 analysis: %llu records, bits: mask %llu B, uniform states %llu B (hist %llu/%llu/%llu/%llu; "
-      "%llu records with only 0/1 uniform children, 1 bit each would save %llu B), flags %llu B, refs "
-      "%llu B, pad %llu B; distinct (mask, states) shapes %zu\n",
+      "h2 analysis: %llu records, bits: mask %llu B, uniform states %llu B (transparent %llu, opaque "
+      "%llu), flags %llu B, refs %llu B, pad %llu B; distinct (mask, states) shapes %zu\n",
       (unsigned long long)recs, (unsigned long long)maskBits / 8, (unsigned long long)stateBits / 8,
-      (unsigned long long)stHist[0], (unsigned long long)stHist[1], (unsigned long long)stHist[2],
-      (unsigned long long)stHist[3], (unsigned long long)only01, (unsigned long long)save01 / 8,
-      (unsigned long long)flagBits / 8, (unsigned long long)refBits / 8, (unsigned long long)padBits / 8,
-      shapes.size());
+      (unsigned long long)stHist[0], (unsigned long long)stHist[1], (unsigned long long)flagBits / 8,
+      (unsigned long long)refBits / 8, (unsigned long long)padBits / 8, shapes.size());
   std::fprintf(stderr,
                "leaf refs: H(leaf) %.0f B, H(leaf | slot) %.0f B, leaves referenced once %llu, leaves whose "
                "complement is a leaf %llu of %u\n",

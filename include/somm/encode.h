@@ -616,8 +616,9 @@ inline State sdagStateAs(const uint8_t* data, const SdagDirectory& dir, uint32_t
 // each other hit the same triangles, so the packed index buffer and the descriptor are read once per triangle, not
 // per lookup. An entry keeps the triangle's value resolved: the map's root, level, format and kind, or a special
 // index's state — and, filled as lookups need them, the root's children (each slot's child record or uniform
-// state), so that a walk of a map of level >= 4 starts one height below its root. Remembering the last walk's
-// path and leaf to restart lower still (a finger search) cost more than it saved in tracing, on coherent
+// state), so that a walk of a map of level >= 4 starts one height below its root; those children are also kept
+// per map (MapTop), so that a triangle's entry starts from what other triangles of its map found. Remembering the
+// last walk's path and leaf to restart lower still (a finger search) cost more than it saved in tracing, on coherent
 // close-ups as on default views (measured, docs/encodings.md). Entries are keyed by the array's identity
 // (EncodedArray::identity(), unique per content: a new one for every build and parse, shared only by copies, which
 // hold the same bytes) and the triangle, and hold offsets and states (never pointers), so an entry can never answer
@@ -631,7 +632,20 @@ struct SdagMemo {
     uint16_t topValid = 0;                    // bit s: top[s] holds the root's child in slot s
     uint32_t top[16] = {};                    // the root's children (byte offsets, or uniform states < 4)
   };
+  // The root's children found so far per map (direct mapped by the root's offset), shared by the triangles of a
+  // map: a triangle's entry, when (re)filled, starts from its map's children instead of finding each again (real
+  // scenes give hundreds of triangles one map). Keyed like an entry by the array's identity, and by the map's root,
+  // level and format; read and written only when an entry is filled or finds a root child, never on the walk's
+  // common path.
+  struct MapTop {
+    uint64_t array = 0;  // 0: empty
+    uint32_t root = 0;
+    uint8_t level = 0, format = 0;
+    uint16_t valid = 0;  // bit s: top[s] holds the root's child in slot s
+    uint32_t top[16] = {};
+  };
   Entry entry[256];
+  MapTop map[256];
 };
 inline SdagMemo& sdagMemo() noexcept {
   thread_local SdagMemo memo;
@@ -639,6 +653,13 @@ inline SdagMemo& sdagMemo() noexcept {
 }
 inline SdagMemo::Entry& sdagMemoEntry(uint32_t triangle) noexcept {
   return sdagMemo().entry[(triangle * 0x9e3779b1u) >> 24];
+}
+// The map cache slot of the map whose root record is at byte offset `root`.
+inline SdagMemo::MapTop& sdagMapTop(uint32_t root) noexcept {
+  return sdagMemo().map[(root * 0x9e3779b1u) >> 24];
+}
+inline bool sdagMapTopHolds(const SdagMemo::MapTop& t, const SdagMemo::Entry& e) noexcept {
+  return t.array == e.array && t.root == e.root && t.level == e.level && t.format == e.format;
 }
 // The root's child covering `index` (see sdagMemoWalk), found and kept in the entry: out of line, so that the walk's
 // common path (the child already kept) needs few registers.
@@ -650,6 +671,11 @@ SOMM_ENCODE_COLD uint32_t sdagMemoTop(const uint8_t* data, const SdagDirectory& 
                                    : sdagStepDown<F>(data, dir, e.root, level >> 1, index);
   e.top[slot] = at;
   e.topValid = uint16_t(e.topValid | (1u << slot));
+  SdagMemo::MapTop& t = sdagMapTop(e.root);
+  if (sdagMapTopHolds(t, e)) {
+    t.top[slot] = at;
+    t.valid = uint16_t(t.valid | (1u << slot));
+  }
   return at;
 }
 // Maps of level < 4 (no kept children): from the root, out of line.
@@ -879,6 +905,21 @@ class EncodedArray {
       e.root = d.offset;
       e.level = d.level;
       e.format = d.format;
+      if (e.kind == 0 && e.level >= 4) {
+        // The root's children other triangles of the map found (or, another map in the slot: the slot now this
+        // map's, empty).
+        encode::SdagMemo::MapTop& t = encode::sdagMapTop(e.root);
+        if (encode::sdagMapTopHolds(t, e)) {
+          e.topValid = t.valid;
+          std::memcpy(e.top, t.top, sizeof e.top);
+        } else {
+          t.array = e.array;
+          t.root = e.root;
+          t.level = e.level;
+          t.format = e.format;
+          t.valid = 0;
+        }
+      }
     }
   }
 

@@ -530,6 +530,25 @@ SOMM_ENCODE_INLINE const uint8_t* sdagLocalLeaf(const uint8_t* data, const SdagD
   const uint32_t ref = getBits(p, at, isShort ? sw : (isMid ? mw : w));
   return data + dir.base[k] + ref * leafBytes;
 }
+// The child that node child number i (of n) of the node record at p (height >= 3) refers to, when the child region
+// k has local references and no mid class, with short references (kTier: the flags F, then the references from bit
+// 32) or without (every reference local, from bit 32 - n): the node regions of the real arrays measured (single
+// models: local only; whole scenes: short and local). The same reading as sdagChildAt, with the references' start
+// fixed and the directory read once. x: the record's bits from bit 32 - n (F).
+template <bool kTier>
+SOMM_ENCODE_INLINE const uint8_t* sdagLocalNode(const uint8_t* data, const SdagDirectory& dir,
+                                                const uint8_t* p, uint32_t n, uint32_t i, uint32_t k,
+                                                uint64_t x) noexcept {
+  const uint32_t w = dir.width[k];
+  if constexpr (!kTier) {
+    return p + getBits(p, 32u - n + w * i, w);
+  } else {
+    const uint32_t fl = uint32_t(x) & ((1u << n) - 1u), s = popcount16(fl & ((1u << i) - 1u));
+    const uint32_t sw = dir.tier[k] - 1u, at = 32u + sw * s + w * (i - s);
+    if ((fl >> i) & 1u) return data + dir.base[k] + getBits(p, at, sw);  // short: in the region
+    return p + getBits(p, at, w);                                        // local
+  }
+}
 // The walk, specialised per format and record height (unrolled: shifts, regions and state widths are
 // constants). Step of a node record of height H >= 2 at p: index bits [4(H-1), 4H) pick the child.
 template <Format F, uint32_t H>
@@ -551,8 +570,14 @@ SOMM_ENCODE_INLINE State sdagNodeStep(const uint8_t* data, const SdagDirectory& 
     }
     return sdagLeafState<F>(c, index & 15u);
   } else {
-    const uint8_t* c =
-        data + sdagChildAt(dir, p, uint32_t(p - data), 32u - n, n, below, k, 0u, sdagNodeFlags(p, n));
+    const uint64_t x = sdagNodeFlags(p, n);
+    const uint8_t* c;
+    if (dir.local[k] != 0 && dir.mid[k] == 0) {
+      c = dir.tier[k] != 0 ? sdagLocalNode<true>(data, dir, p, n, below, k, x)
+                           : sdagLocalNode<false>(data, dir, p, n, below, k, x);
+    } else {
+      c = data + sdagChildAt(dir, p, uint32_t(p - data), 32u - n, n, below, k, 0u, x);
+    }
     return sdagNodeStep<F, H - 1>(data, dir, c, index);
   }
 }

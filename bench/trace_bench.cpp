@@ -103,7 +103,7 @@ std::vector<BenchScene> benchScenes() {
                somm::Camera{{450, 12, -860}, {348, 7, -868}, {0, 1, 0}, 1.05f}});
   v.push_back({"redeclipse-tree01", dir + "/redeclipse/obj/tree01.obj", 0.7f, std::nullopt});
   v.push_back({"flora-quarter", dir + "/zeroad/flora-quarter.obj", -1, std::nullopt});
-  // The Red Eclipse models as one scene (a collection: 7,700 triangles, 180 maps at level 8); cutoff 0.7, the
+  // The Red Eclipse models as one scene (a collection: 7,404 triangles, 182 maps at level 8); cutoff 0.7, the
   // manifest's for all but bush01 (0.6).
   v.push_back({"redeclipse", dir + "/redeclipse/obj", 0.7f, std::nullopt});
   return v;

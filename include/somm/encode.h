@@ -179,11 +179,11 @@ inline uint64_t load64(const uint8_t* p) noexcept {
   std::memcpy(&w, p, 8);
   return w;
 }
-inline uint32_t getBit(const uint8_t* p, uint64_t bit) noexcept {
+SOMM_ENCODE_INLINE uint32_t getBit(const uint8_t* p, uint64_t bit) noexcept {
   return (p[bit >> 3] >> (bit & 7u)) & 1u;
 }
 // n <= 32 bits starting at bit offset `bit`; reads 8 bytes from byte bit/8.
-inline uint32_t getBits(const uint8_t* p, uint64_t bit, uint32_t n) noexcept {
+SOMM_ENCODE_INLINE uint32_t getBits(const uint8_t* p, uint64_t bit, uint32_t n) noexcept {
   return uint32_t((load64(p + (bit >> 3)) >> (bit & 7u)) & ((uint64_t(1) << n) - 1u));
 }
 inline State getValue(const uint8_t* p, uint64_t base, Format f, uint64_t i) noexcept {
@@ -549,37 +549,52 @@ SOMM_ENCODE_INLINE const uint8_t* sdagLocalNode(const uint8_t* data, const SdagD
     return p + getBits(p, at, w);                                        // local
   }
 }
+// The child that node child number i (of n) of the node record of height H >= 2 at p refers to (a leaf for H = 2):
+// the regions of the real arrays read with the references' start fixed (sdagLocalLeaf, sdagLocalNode), the others
+// by sdagChildAt. x: the record's bits from bit 32 - n.
+template <Format F, uint32_t H>
+SOMM_ENCODE_INLINE const uint8_t* sdagNodeChildOf(const uint8_t* data, const SdagDirectory& dir,
+                                                  const uint8_t* p, uint32_t n, uint32_t i,
+                                                  uint64_t x) noexcept {
+  constexpr uint32_t b = F == Format::TwoState ? 1u : 2u, k = sdagRegion(F, H - 1);
+  if constexpr (H == 2) {
+    if (dir.local[k] != 0 && dir.tier[k] != 0)
+      return dir.mid[k] != 0 ? sdagLocalLeaf<F, true>(data, dir, p, n, i, x)
+                             : sdagLocalLeaf<F, false>(data, dir, p, n, i, x);
+    return data + sdagChildAt(dir, p, uint32_t(p - data), 32u - n, n, i, k, 2u * b, x);
+  } else {
+    if (dir.local[k] != 0 && dir.mid[k] == 0)
+      return dir.tier[k] != 0 ? sdagLocalNode<true>(data, dir, p, n, i, k, x)
+                              : sdagLocalNode<false>(data, dir, p, n, i, k, x);
+    return data + sdagChildAt(dir, p, uint32_t(p - data), 32u - n, n, i, k, 0u, x);
+  }
+}
 // The walk, specialised per format and record height (unrolled: shifts, regions and state widths are
 // constants). Step of a node record of height H >= 2 at p: index bits [4(H-1), 4H) pick the child.
 template <Format F, uint32_t H>
 SOMM_ENCODE_INLINE State sdagNodeStep(const uint8_t* data, const SdagDirectory& dir, const uint8_t* p,
                                       uint32_t index) noexcept {
-  constexpr uint32_t b = F == Format::TwoState ? 1u : 2u, k = sdagRegion(F, H - 1);
   const uint32_t slot = (index >> (4u * (H - 1u))) & 15u, m = load16(p),
                  below = popcount16(m & ((1u << slot) - 1u));
   if (!((m >> slot) & 1u)) return State(getBit(p, 16u + slot - below));
   const uint32_t n = popcount16(m);
+  const uint8_t* c = sdagNodeChildOf<F, H>(data, dir, p, n, below, sdagNodeFlags(p, n));
   if constexpr (H == 2) {
-    const uint64_t x = sdagNodeFlags(p, n);
-    const uint8_t* c;
-    if (dir.local[k] != 0 && dir.tier[k] != 0) {
-      c = dir.mid[k] != 0 ? sdagLocalLeaf<F, true>(data, dir, p, n, below, x)
-                          : sdagLocalLeaf<F, false>(data, dir, p, n, below, x);
-    } else {
-      c = data + sdagChildAt(dir, p, uint32_t(p - data), 32u - n, n, below, k, 2u * b, x);
-    }
     return sdagLeafState<F>(c, index & 15u);
   } else {
-    const uint64_t x = sdagNodeFlags(p, n);
-    const uint8_t* c;
-    if (dir.local[k] != 0 && dir.mid[k] == 0) {
-      c = dir.tier[k] != 0 ? sdagLocalNode<true>(data, dir, p, n, below, k, x)
-                           : sdagLocalNode<false>(data, dir, p, n, below, k, x);
-    } else {
-      c = data + sdagChildAt(dir, p, uint32_t(p - data), 32u - n, n, below, k, 0u, x);
-    }
     return sdagNodeStep<F, H - 1>(data, dir, c, index);
   }
+}
+// The child of the node record of height H >= 2 at p that covers `index`: its byte offset in the data (a leaf's for
+// H = 2), or the state (< 2) of a uniform child. The same reading as sdagNodeStep's.
+template <Format F, uint32_t H>
+SOMM_ENCODE_INLINE uint32_t sdagNodeChild(const uint8_t* data, const SdagDirectory& dir, const uint8_t* p,
+                                          uint32_t index) noexcept {
+  const uint32_t slot = (index >> (4u * (H - 1u))) & 15u, m = load16(p),
+                 below = popcount16(m & ((1u << slot) - 1u));
+  if (!((m >> slot) & 1u)) return getBit(p, 16u + slot - below);
+  const uint32_t n = popcount16(m);
+  return uint32_t(sdagNodeChildOf<F, H>(data, dir, p, n, below, sdagNodeFlags(p, n)) - data);
 }
 template <Format F>
 inline State sdagNodeWalk(const uint8_t* data, const SdagDirectory& dir, const uint8_t* p, uint32_t h,
@@ -654,7 +669,9 @@ struct SdagMemo {
     uint32_t triangle = 0;
     uint32_t root = 0;  // the map's descriptor offset, or (kind 2) the special index's state
     uint8_t level = 0, format = 0, kind = 0;  // kind: 0 a DAG map, 1 a flat map, 2 a special index
+    uint8_t grand = 0;                        // the map's grandchild table is SdagMemo::grand[grand] ...
     uint16_t topValid = 0;                    // bit s: top[s] holds the root's child in slot s
+    uint64_t grandGen = ~uint64_t(0);         // ... while its gen equals this (~0: no table)
     uint32_t top[16] = {};                    // the root's children (byte offsets, or uniform states < 4)
   };
   // The root's children found so far per map (direct mapped by the root's offset), shared by the triangles of a
@@ -669,9 +686,32 @@ struct SdagMemo {
     uint16_t valid = 0;  // bit s: top[s] holds the root's child in slot s
     uint32_t top[16] = {};
   };
+  // The root's grandchildren found so far per map (64 tables, direct mapped by the root's offset; maps of level
+  // >= 5 in arrays of at most kGrandArrayMaps DAG roots): at[g] = the record's byte offset or the uniform state (< 4)
+  // covering the index range whose top bits (8 for an even level, 6 for an odd one) are g, valid where bit g of
+  // `valid` is set. A lookup whose entry's map holds the table reads at[g] and walks on from there: one dependent
+  // record fewer than from the root's child (levels 7 and 8: the height-2 record, then the leaf). An entry
+  // (re)filled for a map takes its map's table over unless another map's entries were filled within the last
+  // kGrandIdle fills (then it walks from the root's child); a takeover bumps `gen`, so the entries of the map that
+  // held it (entry.grandGen) stop reading it. Arrays with more maps keep no tables: on 0 A.D. flora-quarter
+  // (2,256 maps at level 8) the tables' misses cost more than their hits saved (docs/encodings.md).
+  struct Grand {
+    uint64_t array = 0;  // 0: empty
+    uint32_t root = 0;
+    uint8_t level = 0, format = 0;
+    uint32_t stamp = 0;      // SdagMemo::fills when an entry of the owner was last filled
+    uint64_t gen = 0;        // bumped (from 1 on) whenever a map takes the table over
+    uint64_t valid[4] = {};  // bit g: at[g] holds the grandchild
+    uint32_t at[256] = {};
+  };
+  static constexpr uint32_t kGrandBits = 6, kGrandIdle = 64;
+  uint32_t fills = 0;  // entries (re)filled so far
   Entry entry[256];
   MapTop map[256];
+  Grand grand[1u << kGrandBits];
 };
+// Arrays of at most this many distinct DAG map roots keep grandchild tables (SdagMemo::Grand).
+inline constexpr uint64_t kGrandArrayMaps = 256;
 inline SdagMemo& sdagMemo() noexcept {
   thread_local SdagMemo memo;
   return memo;
@@ -684,6 +724,13 @@ inline SdagMemo::MapTop& sdagMapTop(uint32_t root) noexcept {
   return sdagMemo().map[(root * 0x9e3779b1u) >> 24];
 }
 inline bool sdagMapTopHolds(const SdagMemo::MapTop& t, const SdagMemo::Entry& e) noexcept {
+  return t.array == e.array && t.root == e.root && t.level == e.level && t.format == e.format;
+}
+// The grandchild table slot of the map whose root record is at byte offset `root`.
+inline uint32_t sdagGrandSlot(uint32_t root) noexcept {
+  return (root * 0x9e3779b1u) >> (32u - SdagMemo::kGrandBits);
+}
+inline bool sdagGrandHolds(const SdagMemo::Grand& t, const SdagMemo::Entry& e) noexcept {
   return t.array == e.array && t.root == e.root && t.level == e.level && t.format == e.format;
 }
 // The root's child covering `index` (see sdagMemoWalk), found and kept in the entry: out of line, so that the walk's
@@ -710,16 +757,52 @@ SOMM_ENCODE_COLD State sdagSmallState(const uint8_t* data, const SdagDirectory& 
   return sdagStateAs<F>(data, dir, root, level, index);
 }
 // The state at `index` of a memo entry's DAG map (kind 0): the walk from the root's child covering `index`, taken
-// from the entry (or found and kept there), for maps of level >= 4; from the root below that.
-template <Format F>
+// from the entry (or found and kept there), for maps of level >= 4; from the root below that. kGrand (arrays of at
+// most kGrandArrayMaps DAG roots, see SdagMemo::Grand): maps of level >= 5 start from the root's grandchild, kept in the
+// map's table while the entry's map holds one.
+template <Format F, bool kGrand>
 SOMM_ENCODE_INLINE State sdagMemoWalk(const uint8_t* data, const SdagDirectory& dir, SdagMemo::Entry& e,
                                       uint32_t index) noexcept {
   const uint32_t level = e.level;
   if (level < 4) return sdagSmallState<F>(data, dir, e.root, level, index);
   const uint32_t odd = level & 1u, slot = index >> (2u * level - 4u + 2u * odd);  // 4-way root: 2 bits
+  const uint32_t h = (level >> 1) - 1u + odd;                                     // the child's height
+  if constexpr (kGrand) {
+    if (h >= 2) {
+      SdagMemo::Grand& t = sdagMemo().grand[e.grand];
+      const uint32_t g = index >> (4u * (h - 1u));
+      const bool holds = t.gen == e.grandGen;
+      uint32_t a;
+      if (holds && ((t.valid[g >> 6] >> (g & 63u)) & 1u)) {
+        a = t.at[g];
+      } else {
+        const uint32_t at =
+            ((e.topValid >> slot) & 1u) ? e.top[slot] : sdagMemoTop<F>(data, dir, e, slot, index);
+        if (at < 4) {
+          a = at;
+        } else if (h == 3) {
+          a = sdagNodeChild<F, 3>(data, dir, data + at, index);
+        } else if (h == 4) {
+          a = sdagNodeChild<F, 4>(data, dir, data + at, index);
+        } else if (h == 2) {
+          a = sdagNodeChild<F, 2>(data, dir, data + at, index);
+        } else {
+          a = sdagStepDown<F>(data, dir, at, h, index);
+        }
+        if (holds) {
+          t.at[g] = a;
+          t.valid[g >> 6] |= uint64_t(1) << (g & 63u);
+        }
+      }
+      if (a < 4) return State(a);
+      if (h == 3) return sdagNodeStep<F, 2>(data, dir, data + a, index);
+      if (h == 4) return sdagNodeStep<F, 3>(data, dir, data + a, index);
+      if (h == 2) return sdagLeafState<F>(data + a, index & 15u);
+      return sdagNodeWalk<F>(data, dir, data + a, h - 1u, index);
+    }
+  }
   const uint32_t at = ((e.topValid >> slot) & 1u) ? e.top[slot] : sdagMemoTop<F>(data, dir, e, slot, index);
   if (at < 4) return State(at);
-  const uint32_t h = (level >> 1) - 1u + odd;  // the child's height
   // Levels 8 to 10 (a child of height 3 or 4) walked in line: no call, no jump on the height. (Height 5 too cost
   // registers: levels 8 and 10 took 2 % more instructions.)
   if (h == 3) return sdagNodeStep<F, 3>(data, dir, data + at, index);
@@ -824,6 +907,9 @@ class EncodedArray {
   const encode::SdagDirectory& directory() const noexcept { return dir_; }
   // Unique per content: every build and parse gets a new value (from 1); copies keep it (same bytes).
   uint64_t identity() const noexcept { return identity_; }
+  // Whether sdag lookups keep per-map grandchild tables (encode::SdagMemo::Grand): arrays of at most
+  // encode::kGrandArrayMaps distinct DAG map roots.
+  bool keepsGrandTables() const noexcept { return grand_; }
   // The encoding whose bytes serve this array: dfs-fast is the dfs tree with another lookup, so it is stored
   // as dfs (a .somm file keeps one dfs section for both).
   static Encoding storedEncoding(Encoding e) noexcept { return e == Encoding::DfsFast ? Encoding::Dfs : e; }
@@ -921,6 +1007,7 @@ class EncodedArray {
     e.array = identity_;
     e.triangle = triangle;
     e.topValid = 0;
+    e.grandGen = ~uint64_t(0);
     if (i < 0) {
       e.kind = 2;
       e.root = uint32_t(stateOfSpecialIndex(i));
@@ -944,6 +1031,26 @@ class EncodedArray {
           t.format = e.format;
           t.valid = 0;
         }
+        if (grand_ && e.level >= 5) {
+          // The map's grandchild table: its own, or taken over from a map idle for kGrandIdle fills, or none.
+          encode::SdagMemo& memo = encode::sdagMemo();
+          const uint32_t now = ++memo.fills;
+          const uint32_t slot = encode::sdagGrandSlot(e.root);
+          encode::SdagMemo::Grand& g = memo.grand[slot];
+          e.grand = uint8_t(slot);
+          if (encode::sdagGrandHolds(g, e)) {
+            g.stamp = now;
+            e.grandGen = g.gen;
+          } else if (g.array == 0 || now - g.stamp > encode::SdagMemo::kGrandIdle) {
+            e.grandGen = ++g.gen;
+            g.stamp = now;
+            g.array = e.array;
+            g.root = e.root;
+            g.level = e.level;
+            g.format = e.format;
+            g.valid[0] = g.valid[1] = g.valid[2] = g.valid[3] = 0;
+          }
+        }
       }
     }
   }
@@ -958,8 +1065,13 @@ class EncodedArray {
     const uint32_t index = indexOf(e.level);
     const Format f = Format(e.format);
     if (e.kind == 1) return encode::flatState(data_.data() + e.root, e.level, f, index);
-    return f == Format::FourState ? encode::sdagMemoWalk<Format::FourState>(data_.data(), dir_, e, index)
-                                  : encode::sdagMemoWalk<Format::TwoState>(data_.data(), dir_, e, index);
+    if (grand_)
+      return f == Format::FourState
+                 ? encode::sdagMemoWalk<Format::FourState, true>(data_.data(), dir_, e, index)
+                 : encode::sdagMemoWalk<Format::TwoState, true>(data_.data(), dir_, e, index);
+    return f == Format::FourState
+               ? encode::sdagMemoWalk<Format::FourState, false>(data_.data(), dir_, e, index)
+               : encode::sdagMemoWalk<Format::TwoState, false>(data_.data(), dir_, e, index);
   }
 
   template <Encoding E>
@@ -1024,6 +1136,7 @@ class EncodedArray {
   bool hasDirectory_ = false;
   encode::SdagDirectory dir_{};
   uint64_t identity_ = 0;        // unique per content (build / parse), a key of encode::sdagMemo
+  bool grand_ = false;           // the sdag walk keeps grandchild tables (encode::SdagMemo::Grand)
   uint32_t indexBits_ = 0;       // > 0 iff hasDirectory_
   std::vector<uint8_t> packed_;  // the packed index buffer (indexBits_ > 0) + kTailPadding zero bytes
   uint64_t indexGroups_ = 0;     // > 0 iff the packed buffer is rank-packed: its number of 32-triangle groups

@@ -1227,6 +1227,16 @@ uint32_t getU32(const uint8_t* p) {
   return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24;
 }
 
+// Whether the sdag walk keeps grandchild tables for an array with these maps: at most kGrandArrayMaps distinct
+// roots (descriptors sharing bytes share a root).
+bool fewRootsForGrandTables(const std::vector<EncodedMapDesc>& maps) {
+  std::vector<uint32_t> roots;
+  for (const EncodedMapDesc& d : maps)
+    if (d.kind != MapKind::Flat) roots.push_back(d.offset);
+  std::sort(roots.begin(), roots.end());
+  return uint64_t(std::unique(roots.begin(), roots.end()) - roots.begin()) <= encode::kGrandArrayMaps;
+}
+
 uint64_t newIdentity() {
   static std::atomic<uint64_t> next{1};
   return next.fetch_add(1, std::memory_order_relaxed);
@@ -1472,6 +1482,7 @@ Result<EncodedArray> EncodedArray::build(const OmmArray& array, Encoding encodin
   out.data_.resize(out.data_.size() + (anyTree ? encode::kTailPadding : 0), 0);
   if (out.hasDirectory_) out.packIndices();
   out.identity_ = newIdentity();
+  out.grand_ = fewRootsForGrandTables(out.maps_);
   return out;
 }
 
@@ -1747,6 +1758,7 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
     if (out.data_[i] != 0) return bad("encoded array tail padding is not zero");
   out.dataBytes_ = dataBytes;
   out.identity_ = newIdentity();
+  out.grand_ = fewRootsForGrandTables(out.maps_);
   return out;
 }
 

@@ -1059,6 +1059,75 @@ TEST(EncodeDag, WalkMemoAnswersAsFlatInAnyOrder) {
     }
   }
 }
+// `base` with a run of micro-triangles (where depends on k) made opaque: distinct maps of one shape for distinct k.
+Micromap withOpaqueRun(const Micromap& base, uint32_t k) {
+  Micromap m = base;
+  const uint32_t n = m.size(), first = uint32_t((uint64_t(k) * 2654435761u) % n);
+  for (uint32_t i = first; i < std::min(n, first + 1 + n / 64); ++i) m.set(i, State::Opaque);
+  return m;
+}
+// The per-map grandchild tables of the sdag memo (arrays of at most 256 maps; 64 tables per thread): 180 distinct
+// maps of levels 5..10 (every height of the root's children), 400 triangles sharing them, lookups in runs over a few
+// triangles at a time (tables filled, kept, taken over by other maps after their owners idle, so that entries
+// still holding a table's old owner must stop reading it), interleaved with a second array of the same shapes but
+// other states (its maps' roots land in the same tables) and with an array of 300 maps (no tables). Every answer
+// as flat.
+TEST(EncodeDag, WalkMemoGrandTablesAnswerAsFlat) {
+  for (Format f : {Format::TwoState, Format::FourState}) {
+    std::mt19937 rng(f == Format::TwoState ? 31u : 32u);
+    std::vector<Micromap> maps;
+    for (uint32_t k = 0; k < 180; ++k)
+      maps.push_back(withOpaqueRun(cachedMap(k % 3 ? Pattern::Leaf : Pattern::Disc, 5 + k % 6, f, 1), k));
+    OmmArray oracle = arrayOf(maps);  // 180 descriptors; 400 triangles share them, then the 4 special indices
+    oracle.indices.clear();
+    for (uint32_t t = 0; t < 400; ++t) oracle.indices.push_back(int32_t(t < 180 ? t : rng() % 180));
+    for (int32_t s = -1; s >= -4; --s) oracle.indices.push_back(s);
+    OmmArray other = oracle;
+    for (uint8_t& byte : other.data) byte = uint8_t(~byte);  // every state changes (4-state: 0<->3, 1<->2)
+    const EncodedArray e = EncodedArray::build(oracle, Encoding::Sdag).value();
+    const EncodedArray o = EncodedArray::build(other, Encoding::Sdag).value();
+    // 300 distinct maps: more than 256, no tables
+    std::vector<Micromap> many;
+    for (uint32_t k = 0; k < 300; ++k)
+      many.push_back(withOpaqueRun(cachedMap(Pattern::Leaf, 5 + k % 3, f, 1), k));
+    const OmmArray manyOracle = arrayOf(many);
+    const EncodedArray m = EncodedArray::build(manyOracle, Encoding::Sdag).value();
+    ASSERT_TRUE(e.keepsGrandTables());
+    ASSERT_TRUE(o.keepsGrandTables());
+    ASSERT_FALSE(m.keepsGrandTables());
+    const uint32_t n = e.triangleCount();
+    std::vector<uint32_t> last(n, 0);
+    for (uint32_t run = 0; run < 3000; ++run) {
+      const uint32_t first = rng() % n, width = 1 + rng() % 6;
+      const bool otherArray = rng() % 4 == 0;
+      for (uint32_t q = 0; q < 60; ++q) {
+        const uint32_t t = (first + rng() % width) % n;
+        const uint32_t level =
+            oracle.indices[t] >= 0 ? oracle.descriptors[size_t(oracle.indices[t])].subdivisionLevel : 0;
+        const uint32_t count = microTriangleCount(level);
+        uint32_t i;
+        switch (rng() % 3) {
+          case 0:
+            i = rng() % count;
+            break;
+          case 1:
+            i = (last[t] + 1 + rng() % 16) % count;
+            break;
+          default:
+            i = level ? last[t] ^ (1u << (rng() % (2 * level))) : 0;
+        }
+        last[t] = i;
+        if (otherArray) {
+          ASSERT_EQ(o.state(t, i), other.state(t, i)) << int(f) << " other " << t << " " << i;
+          const uint32_t mt = (t + run) % 300, mi = rng() % microTriangleCount(5 + mt % 3);
+          ASSERT_EQ(m.state(mt, mi), manyOracle.state(mt, mi)) << int(f) << " many " << mt << " " << mi;
+        } else {
+          ASSERT_EQ(e.state(t, i), oracle.state(t, i)) << int(f) << " triangle " << t << " index " << i;
+        }
+      }
+    }
+  }
+}
 // The deepest maps (levels 11 and 12: a 4-way root over height-5 records, a height-6 root) through the memo:
 // neighbouring, bit-flipped and random indices (successive lookups differing at every height 2..6), against flat.
 TEST(EncodeDag, WalkMemoRestartsAtEveryHeightOfLevels11And12) {

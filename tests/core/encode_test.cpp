@@ -1006,6 +1006,25 @@ TEST(EncodeDag, WalkMemoNeverAnswersForOtherBytes) {
     }
 }
 
+// The next index a test looks up in triangle t of `a` (its level from a's index buffer; 0 for a special index):
+// random, 1 + [0, maxStep) past `last`, or `last` with one bit flipped (a walk restarting at any height); kept in
+// `last`.
+uint32_t nextLookupIndex(std::mt19937& rng, const OmmArray& a, uint32_t t, uint32_t& last, uint32_t maxStep) {
+  const uint32_t level = a.indices[t] >= 0 ? a.descriptors[size_t(a.indices[t])].subdivisionLevel : 0;
+  const uint32_t n = microTriangleCount(level);
+  switch (rng() % 3) {
+    case 0:
+      last = rng() % n;
+      break;
+    case 1:
+      last = (last + 1 + (maxStep > 1 ? rng() % maxStep : 0)) % n;
+      break;
+    default:
+      last = level ? last ^ (1u << (rng() % (2 * level))) : 0;
+  }
+  return last;
+}
+
 // The per-thread memo of sdag lookups (one entry per triangle hash: the index-buffer value resolved and the
 // root's children): any order of lookups answers as flat. 600 triangles (more than the memo's 256 entries, so
 // entries are evicted and refilled), maps of every level 0..10 and pattern (uniform maps become special indices,
@@ -1034,22 +1053,7 @@ TEST(EncodeDag, WalkMemoAnswersAsFlatInAnyOrder) {
     const uint32_t triangles = e.triangleCount();
     std::vector<uint32_t> last(triangles, 0);
     for (uint32_t q = 0; q < 200000; ++q) {
-      const uint32_t t = rng() % triangles;
-      const uint32_t level =
-          oracle.indices[t] >= 0 ? oracle.descriptors[size_t(oracle.indices[t])].subdivisionLevel : 0;
-      const uint32_t n = microTriangleCount(level);
-      uint32_t i;
-      switch (rng() % 3) {
-        case 0:
-          i = rng() % n;
-          break;
-        case 1:
-          i = (last[t] + 1) % n;
-          break;
-        default:
-          i = level ? last[t] ^ (1u << (rng() % (2 * level))) : 0;
-      }
-      last[t] = i;
+      const uint32_t t = rng() % triangles, i = nextLookupIndex(rng, oracle, t, last[t], 1);
       ASSERT_EQ(e.state(t, i), oracle.state(t, i)) << int(f) << " triangle " << t << " index " << i;
       const float u = float(rng() % 4097) / 4096.0f, v = float(rng() % 4097) / 4096.0f;
       ASSERT_EQ(e.stateUV(t, u, v), oracle.stateUV(t, u, v))
@@ -1101,22 +1105,7 @@ TEST(EncodeDag, WalkMemoGrandTablesAnswerAsFlat) {
       const uint32_t first = rng() % n, width = 1 + rng() % 6;
       const bool otherArray = rng() % 4 == 0;
       for (uint32_t q = 0; q < 60; ++q) {
-        const uint32_t t = (first + rng() % width) % n;
-        const uint32_t level =
-            oracle.indices[t] >= 0 ? oracle.descriptors[size_t(oracle.indices[t])].subdivisionLevel : 0;
-        const uint32_t count = microTriangleCount(level);
-        uint32_t i;
-        switch (rng() % 3) {
-          case 0:
-            i = rng() % count;
-            break;
-          case 1:
-            i = (last[t] + 1 + rng() % 16) % count;
-            break;
-          default:
-            i = level ? last[t] ^ (1u << (rng() % (2 * level))) : 0;
-        }
-        last[t] = i;
+        const uint32_t t = (first + rng() % width) % n, i = nextLookupIndex(rng, oracle, t, last[t], 16);
         if (otherArray) {
           ASSERT_EQ(o.state(t, i), other.state(t, i)) << int(f) << " other " << t << " " << i;
           const uint32_t mt = (t + run) % 300, mi = rng() % microTriangleCount(5 + mt % 3);

@@ -671,6 +671,8 @@ struct SdagMemo {
     uint8_t level = 0, format = 0, kind = 0;  // kind: 0 a DAG map, 1 a flat map, 2 a special index
     uint8_t grand = 0;                        // the map's grandchild table is SdagMemo::grand[grand] ...
     uint16_t topValid = 0;                    // bit s: top[s] holds the root's child in slot s
+    uint8_t slotShift = 0, hShift = 0;        // level >= 4: index >> slotShift = the root's slot; the root's
+                                              // children's height h = hShift / 4 + 1
     uint64_t grandGen = ~uint64_t(0);         // ... while its gen equals this (~0: no table)
     uint32_t top[16] = {};                    // the root's children (byte offsets, or uniform states < 4)
   };
@@ -765,12 +767,11 @@ SOMM_ENCODE_INLINE State sdagMemoWalk(const uint8_t* data, const SdagDirectory& 
                                       uint32_t index) noexcept {
   const uint32_t level = e.level;
   if (level < 4) return sdagSmallState<F>(data, dir, e.root, level, index);
-  const uint32_t odd = level & 1u, slot = index >> (2u * level - 4u + 2u * odd);  // 4-way root: 2 bits
-  const uint32_t h = (level >> 1) - 1u + odd;                                     // the child's height
+  const uint32_t slot = index >> e.slotShift, hs = e.hShift, h = (hs >> 2) + 1u;  // h: the child's height
   if constexpr (kGrand) {
     if (h >= 2) {
       SdagMemo::Grand& t = sdagMemo().grand[e.grand];
-      const uint32_t g = index >> (4u * (h - 1u));
+      const uint32_t g = index >> hs;
       const bool holds = t.gen == e.grandGen;
       uint32_t a;
       if (holds && ((t.valid[g >> 6] >> (g & 63u)) & 1u)) {
@@ -1017,6 +1018,11 @@ class EncodedArray {
       e.root = d.offset;
       e.level = d.level;
       e.format = d.format;
+      if (e.level >= 4) {
+        const uint32_t odd = e.level & 1u;
+        e.slotShift = uint8_t(2u * e.level - 4u + 2u * odd);  // 4-way root (odd level): 2 bits
+        e.hShift = uint8_t(4u * ((e.level >> 1) - 2u + odd));
+      }
       if (e.kind == 0 && e.level >= 4) {
         // The root's children other triangles of the map found (or, another map in the slot: the slot now this
         // map's, empty).

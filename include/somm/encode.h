@@ -725,15 +725,14 @@ inline SdagMemo::Entry& sdagMemoEntry(uint32_t triangle) noexcept {
 inline SdagMemo::MapTop& sdagMapTop(uint32_t root) noexcept {
   return sdagMemo().map[(root * 0x9e3779b1u) >> 24];
 }
-inline bool sdagMapTopHolds(const SdagMemo::MapTop& t, const SdagMemo::Entry& e) noexcept {
+// Whether a per-map table t (MapTop or Grand: keyed by array, root, level and format) holds entry e's map.
+template <class Table>
+inline bool sdagTableHolds(const Table& t, const SdagMemo::Entry& e) noexcept {
   return t.array == e.array && t.root == e.root && t.level == e.level && t.format == e.format;
 }
 // The grandchild table slot of the map whose root record is at byte offset `root`.
 inline uint32_t sdagGrandSlot(uint32_t root) noexcept {
   return (root * 0x9e3779b1u) >> (32u - SdagMemo::kGrandBits);
-}
-inline bool sdagGrandHolds(const SdagMemo::Grand& t, const SdagMemo::Entry& e) noexcept {
-  return t.array == e.array && t.root == e.root && t.level == e.level && t.format == e.format;
 }
 // The root's child covering `index` (see sdagMemoWalk), found and kept in the entry: out of line, so that the walk's
 // common path (the child already kept) needs few registers.
@@ -746,7 +745,7 @@ SOMM_ENCODE_COLD uint32_t sdagMemoTop(const uint8_t* data, const SdagDirectory& 
   e.top[slot] = at;
   e.topValid = uint16_t(e.topValid | (1u << slot));
   SdagMemo::MapTop& t = sdagMapTop(e.root);
-  if (sdagMapTopHolds(t, e)) {
+  if (sdagTableHolds(t, e)) {
     t.top[slot] = at;
     t.valid = uint16_t(t.valid | (1u << slot));
   }
@@ -1027,7 +1026,7 @@ class EncodedArray {
         // The root's children other triangles of the map found (or, another map in the slot: the slot now this
         // map's, empty).
         encode::SdagMemo::MapTop& t = encode::sdagMapTop(e.root);
-        if (encode::sdagMapTopHolds(t, e)) {
+        if (encode::sdagTableHolds(t, e)) {
           e.topValid = t.valid;
           std::memcpy(e.top, t.top, sizeof e.top);
         } else {
@@ -1044,7 +1043,7 @@ class EncodedArray {
           const uint32_t slot = encode::sdagGrandSlot(e.root);
           encode::SdagMemo::Grand& g = memo.grand[slot];
           e.grand = uint8_t(slot);
-          if (encode::sdagGrandHolds(g, e)) {
+          if (encode::sdagTableHolds(g, e)) {
             g.stamp = now;
             e.grandGen = g.gen;
           } else if (g.array == 0 || now - g.stamp > encode::SdagMemo::kGrandIdle) {

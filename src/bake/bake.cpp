@@ -1902,6 +1902,7 @@ uint64_t AlphaMask::rectPass(uint32_t x0, uint32_t x1, uint32_t y0, uint32_t y1)
 // Bit 0: [x0, x1] × [y0, y1] (inside the texture) holds a passing texel; bit 1: a failing one. The whole words from
 // the word table first (O(1)); the partial end words row by row only while a class is still unseen.
 unsigned AlphaMask::rectPassFail(uint32_t x0, uint32_t x1, uint32_t y0, uint32_t y1) const noexcept {
+  constexpr uint32_t kCountRows = 8;
   const uint32_t k0 = x0 >> 6, k1 = x1 >> 6, s0 = x0 & 63u, s1 = x1 & 63u;
   uint64_t lo = ~uint64_t(0) << s0, hi = ~uint64_t(0) >> (63u - s1);
   unsigned seen = 0;
@@ -1914,6 +1915,26 @@ unsigned AlphaMask::rectPassFail(uint32_t x0, uint32_t x1, uint32_t y0, uint32_t
     const uint64_t total = uint64_t(k1 - k0 - 1) * 64u * (uint64_t(y1) - y0 + 1);
     seen = (pass > 0 ? 1u : 0u) | (pass < total ? 2u : 0u);
     if (seen == 3u) return 3u;
+  }
+  // An end word whose whole column [64k, 64k + 63] × [y0, y1] is of one class (the word table's count, O(1)) gives
+  // its part of the rectangle that class without reading its rows: tall rectangles over uniform texels (a node's
+  // grown box) read no row at all. Short ones read their rows (fewer instructions than the two counts).
+  if (y1 - y0 >= kCountRows) {
+    const uint64_t whole = 64u * (uint64_t(y1) - y0 + 1);
+    const uint64_t pl = wordsPass(kl, kl + 1, y0, y1);
+    if (pl == 0 || pl == whole) {
+      seen |= pl ? 1u : 2u;
+      if (!hi) return seen;
+      lo = 0;  // the left word is done; only the right one is left to read
+    }
+    if (hi) {
+      const uint64_t pr = wordsPass(kr, kr + 1, y0, y1);
+      if (pr == 0 || pr == whole) {
+        seen |= pr ? 1u : 2u;
+        hi = 0;
+      }
+    }
+    if (seen == 3u || (lo | hi) == 0) return seen;
   }
   const uint64_t* row = bits_.data() + size_t(y0) * words_;
   for (uint32_t y = y0; y <= y1; ++y, row += words_) {

@@ -84,6 +84,41 @@ TEST(AlphaMask, CountsOfIntegerTexturesAreExact) {
     }
 }
 
+// passFail of tall rectangles (more rows than rectPassFail reads one by one) over textures whose 64-texel word
+// columns are mostly of one class, with a few texels of the other class: the end words are then decided by their
+// whole column's count or read row by row (a speck inside the rectangle, outside it, or in the column only).
+// Widths with a partial last word and a multiple of 64; against brute force.
+TEST(AlphaMask, PassFailOfTallRectanglesOverUniformColumns) {
+  std::mt19937 rng(23);
+  for (uint32_t w : {70u, 128u, 200u, 300u}) {
+    const uint32_t h = 90;
+    std::vector<uint8_t> a(size_t(w) * h);
+    for (uint32_t y = 0; y < h; ++y)
+      for (uint32_t x = 0; x < w; ++x)
+        a[size_t(y) * w + x] = ((x >> 6) + (y >= 45 ? 1u : 0u)) % 3 == 0 ? 255 : 0;
+    std::uniform_int_distribution<uint32_t> sx(0, w - 1), sy(0, h - 1);
+    for (int s = 0; s < 6; ++s) {
+      uint8_t& t = a[size_t(sy(rng)) * w + sx(rng)];
+      t = uint8_t(255 - t);
+    }
+    const AlphaTexture tex =
+        makeTexture(w, h, [&](uint32_t x, uint32_t y) { return a[size_t(y) * w + x] / 255.0; });
+    const AlphaMask mask(tex, Sampler{}, 0.5f);
+    std::uniform_int_distribution<int64_t> dx(0, w - 1), dy(0, h - 1);
+    for (int k = 0; k < 3000; ++k) {
+      int64_t x0 = dx(rng), x1 = dx(rng), y0 = dy(rng), y1 = dy(rng);
+      if (x0 > x1) std::swap(x0, x1);
+      if (y0 > y1) std::swap(y0, y1);
+      if (k % 2 == 0) y1 = std::min<int64_t>(h - 1, y0 + 8 + k % 40);  // tall
+      bool anyPass = false, anyFail = false;
+      for (int64_t y = y0; y <= y1; ++y)
+        for (int64_t x = x0; x <= x1; ++x) (a[size_t(y) * w + size_t(x)] >= 128 ? anyPass : anyFail) = true;
+      EXPECT_EQ(mask.passFail(x0, x1, y0, y1), (anyPass ? 1u : 0u) | (anyFail ? 2u : 0u))
+          << w << " " << x0 << ".." << x1 << " × " << y0 << ".." << y1;
+    }
+  }
+}
+
 // A hard vertical edge between texel columns 31 and 32 (opaque left). Exactly the micro-triangles whose
 // texel-space x-extent reaches across the edge are unknown; all others are known.
 // The pass bits against the alpha test of every texel, for widths around the 64-bit word size.

@@ -365,8 +365,9 @@ inline State csmState(const uint8_t* data, uint32_t offset, uint32_t level, Form
 // every reference into region k is long; t > 0: each is short, t-1 bits, or not), u8 mid[12] (0: a reference that
 // is not short is long; u > t: it is mid, u-1 bits, or long), u8 local[12] (1: a long reference into region k is
 // local: the child's byte offset from the referring record's first byte) and 4 zero bytes. A node of height h:
-// u16 mask M (1 = child is a node), the states of the uniform children (M bit 0) in slot order, 1 bit each
-// (transparent / opaque; a uniformly unknown child is a node child), then the references of the node children in
+// u16 mask M (1 = child is a node), the states of the uniform children (M bit 0; transparent / opaque, 1 bit each; a
+// uniformly unknown child is a node child) — unless M is full, a bit E then one state for all of them (E = 0) or
+// one per uniform child in slot order (E = 1; version 7) —, then the references of the node children in
 // slot order — when region (f, h-1) is tiered first one flag bit per node child (F, 1 = short), with a mid class
 // then one bit per node child that is not short (G, 1 = mid), then the references —: short and mid ones (and long
 // ones without the local flag) a leaf number in region (f, 1) (leaves are 2b bytes) or a byte offset into region
@@ -400,6 +401,16 @@ struct SdagRefClass {
 // bit ? a : b without a branch (bit is 0 or 1; the reference widths depend on the data, a branch mispredicts).
 SOMM_ENCODE_INLINE uint32_t sdagPick(uint32_t bit, uint32_t a, uint32_t b) noexcept {
   return b ^ ((a ^ b) & (0u - bit));
+}
+// The uniform-states field of a 16-slot node record with n node children (version 7), from bit 16: none when every
+// child is a node (n = 16); otherwise bit 16 is E: E = 0, one state bit (bit 17) for every uniform child; E = 1, one
+// bit per uniform child in slot order from bit 17. Its length in bits: 0, 2 or 1 + (16 - n). e: bit 16.
+SOMM_ENCODE_INLINE uint32_t sdagStatesBits(uint32_t n, uint32_t e) noexcept {
+  return n == 16u ? 0u : sdagPick(e, 17u - n, 2u);
+}
+// The bit holding the state of uniform child number u (= slot - below) of such a record (n < 16).
+SOMM_ENCODE_INLINE uint32_t sdagUniformBit(const uint8_t* p, uint32_t u) noexcept {
+  return 17u + sdagPick(p[2] & 1u, u, 0u);
 }
 // The record's bits from bit pos on (at least 56 of them), in one unaligned load.
 SOMM_ENCODE_INLINE uint64_t sdagBitsFrom(const uint8_t* p, uint32_t pos) noexcept {
@@ -473,10 +484,17 @@ SOMM_ENCODE_INLINE uint32_t sdagChildAt(const SdagDirectory& dir, const uint8_t*
                                         uint32_t n, uint32_t i, uint32_t k, uint32_t leafBytes) noexcept {
   return sdagChildAt(dir, p, at, pos, n, i, k, leafBytes, sdagBitsFrom(p, pos));
 }
-// The flag bits of a node record with n node children (from bit 32 - n): one load from byte 2, independent of
-// the mask (16 - n <= 16 bits skipped leaves >= 48).
-SOMM_ENCODE_INLINE uint64_t sdagNodeFlags(const uint8_t* p, uint32_t n) noexcept {
-  return load64(p + 2) >> (16u - n);
+// Where the flags (and references) of a 16-slot node record with n node children start (pos = 16 + the states
+// field's length), and the record's bits from there: one load from byte 2, independent of the mask (the states field
+// skipped, 0, 2 or 17 - n bits, leaves at least 47 + n >= 3n bits: the flag vectors).
+struct SdagFlags {
+  uint32_t pos;
+  uint64_t x;
+};
+SOMM_ENCODE_INLINE SdagFlags sdagNodeFlags(const uint8_t* p, uint32_t n) noexcept {
+  const uint64_t y = load64(p + 2);
+  const uint32_t sl = sdagStatesBits(n, uint32_t(y) & 1u);
+  return {16u + sl, y >> sl};
 }
 // Bits of the references (with their flags) of such a record (h: with the H flags of a local leaf region).
 inline uint32_t sdagRefBits(const uint8_t* p, uint32_t pos, uint32_t n, uint32_t w, uint32_t tier,
@@ -502,12 +520,12 @@ SOMM_ENCODE_INLINE State sdagLeafState(const uint8_t* leaf, uint32_t slot) noexc
 // The leaf that node child number i (of n) of the height-2 record at p refers to, when the leaf region has short
 // references (F) and local leaves (H), with a mid class (G) or without (kMid): the leaf regions of the real arrays
 // measured (single models: F and H; whole scenes: F, G and H). The same reading as sdagLeafRefClass + sdagChildAt,
-// with the references' start fixed (F ends at bit 32: the references start at bit 32 + the lengths of G and H) and
+// with the references' start fixed (after F, G and H: pos + n + the lengths of G and H) and
 // fewer values alive; a local leaf returns early (a branch: fewer instructions, measured no slower than a select).
-// x: the record's bits from bit 32 - n (F, G, H).
+// pos, x: where the flags start (F, G, H) and the record's bits from there.
 template <Format F, bool kMid>
 SOMM_ENCODE_INLINE const uint8_t* sdagLocalLeaf(const uint8_t* data, const SdagDirectory& dir,
-                                                const uint8_t* p, uint32_t n, uint32_t i,
+                                                const uint8_t* p, uint32_t n, uint32_t i, uint32_t pos,
                                                 uint64_t x) noexcept {
   constexpr uint32_t leafBytes = F == Format::TwoState ? 2u : 4u, k = sdagRegion(F, 1);
   const uint32_t fl = uint32_t(x) & ((1u << n) - 1u), s = popcount16(fl & ((1u << i) - 1u));
@@ -526,47 +544,47 @@ SOMM_ENCODE_INLINE const uint8_t* sdagLocalLeaf(const uint8_t* data, const SdagD
   if ((hh >> o) & 1u & ((isShort | isMid) ^ 1u))
     return p - (popcount16(hh) - hb) * leafBytes;  // a local leaf
   const uint32_t sw = dir.tier[k] - 1u, mw = dir.mid[k] - 1u, w = dir.width[k];
-  const uint32_t at = 32u + gl + r2 + sw * s + (kMid ? mw * gb : 0u) + w * (o - hb);
+  const uint32_t at = pos + n + gl + r2 + sw * s + (kMid ? mw * gb : 0u) + w * (o - hb);
   const uint32_t ref = getBits(p, at, isShort ? sw : (isMid ? mw : w));
   return data + dir.base[k] + ref * leafBytes;
 }
 // The child that node child number i (of n) of the node record at p (height >= 3) refers to, when the child region
-// k has local references and no mid class, with short references (kTier: the flags F, then the references from bit
-// 32) or without (every reference local, from bit 32 - n): the node regions of the real arrays measured (single
-// models: local only; whole scenes: short and local). The same reading as sdagChildAt, with the references' start
-// fixed and the directory read once. x: the record's bits from bit 32 - n (F).
+// k has local references and no mid class, with short references (kTier: the flags F from bit pos, then the
+// references from bit pos + n) or without (every reference local, from bit pos): the node regions of the real arrays
+// measured (single models: local only; whole scenes: short and local). The same reading as sdagChildAt, with the
+// references' start fixed and the directory read once. x: the record's bits from bit pos (F).
 template <bool kTier>
 SOMM_ENCODE_INLINE const uint8_t* sdagLocalNode(const uint8_t* data, const SdagDirectory& dir,
                                                 const uint8_t* p, uint32_t n, uint32_t i, uint32_t k,
-                                                uint64_t x) noexcept {
+                                                uint32_t pos, uint64_t x) noexcept {
   const uint32_t w = dir.width[k];
   if constexpr (!kTier) {
-    return p + getBits(p, 32u - n + w * i, w);
+    return p + getBits(p, pos + w * i, w);
   } else {
     const uint32_t fl = uint32_t(x) & ((1u << n) - 1u), s = popcount16(fl & ((1u << i) - 1u));
-    const uint32_t sw = dir.tier[k] - 1u, at = 32u + sw * s + w * (i - s);
+    const uint32_t sw = dir.tier[k] - 1u, at = pos + n + sw * s + w * (i - s);
     if ((fl >> i) & 1u) return data + dir.base[k] + getBits(p, at, sw);  // short: in the region
     return p + getBits(p, at, w);                                        // local
   }
 }
 // The child that node child number i (of n) of the node record of height H >= 2 at p refers to (a leaf for H = 2):
 // the regions of the real arrays read with the references' start fixed (sdagLocalLeaf, sdagLocalNode), the others
-// by sdagChildAt. x: the record's bits from bit 32 - n.
+// by sdagChildAt. fx: where the flags start and the record's bits from there (sdagNodeFlags).
 template <Format F, uint32_t H>
 SOMM_ENCODE_INLINE const uint8_t* sdagNodeChildOf(const uint8_t* data, const SdagDirectory& dir,
                                                   const uint8_t* p, uint32_t n, uint32_t i,
-                                                  uint64_t x) noexcept {
+                                                  SdagFlags fx) noexcept {
   constexpr uint32_t b = F == Format::TwoState ? 1u : 2u, k = sdagRegion(F, H - 1);
   if constexpr (H == 2) {
     if (dir.local[k] != 0 && dir.tier[k] != 0)
-      return dir.mid[k] != 0 ? sdagLocalLeaf<F, true>(data, dir, p, n, i, x)
-                             : sdagLocalLeaf<F, false>(data, dir, p, n, i, x);
-    return data + sdagChildAt(dir, p, uint32_t(p - data), 32u - n, n, i, k, 2u * b, x);
+      return dir.mid[k] != 0 ? sdagLocalLeaf<F, true>(data, dir, p, n, i, fx.pos, fx.x)
+                             : sdagLocalLeaf<F, false>(data, dir, p, n, i, fx.pos, fx.x);
+    return data + sdagChildAt(dir, p, uint32_t(p - data), fx.pos, n, i, k, 2u * b, fx.x);
   } else {
     if (dir.local[k] != 0 && dir.mid[k] == 0)
-      return dir.tier[k] != 0 ? sdagLocalNode<true>(data, dir, p, n, i, k, x)
-                              : sdagLocalNode<false>(data, dir, p, n, i, k, x);
-    return data + sdagChildAt(dir, p, uint32_t(p - data), 32u - n, n, i, k, 0u, x);
+      return dir.tier[k] != 0 ? sdagLocalNode<true>(data, dir, p, n, i, k, fx.pos, fx.x)
+                              : sdagLocalNode<false>(data, dir, p, n, i, k, fx.pos, fx.x);
+    return data + sdagChildAt(dir, p, uint32_t(p - data), fx.pos, n, i, k, 0u, fx.x);
   }
 }
 // The walk, specialised per format and record height (unrolled: shifts, regions and state widths are
@@ -576,7 +594,7 @@ SOMM_ENCODE_INLINE State sdagNodeStep(const uint8_t* data, const SdagDirectory& 
                                       uint32_t index) noexcept {
   const uint32_t slot = (index >> (4u * (H - 1u))) & 15u, m = load16(p),
                  below = popcount16(m & ((1u << slot) - 1u));
-  if (!((m >> slot) & 1u)) return State(getBit(p, 16u + slot - below));
+  if (!((m >> slot) & 1u)) return State(getBit(p, sdagUniformBit(p, slot - below)));
   const uint32_t n = popcount16(m);
   const uint8_t* c = sdagNodeChildOf<F, H>(data, dir, p, n, below, sdagNodeFlags(p, n));
   if constexpr (H == 2) {
@@ -592,7 +610,7 @@ SOMM_ENCODE_INLINE uint32_t sdagNodeChild(const uint8_t* data, const SdagDirecto
                                           uint32_t index) noexcept {
   const uint32_t slot = (index >> (4u * (H - 1u))) & 15u, m = load16(p),
                  below = popcount16(m & ((1u << slot) - 1u));
-  if (!((m >> slot) & 1u)) return getBit(p, 16u + slot - below);
+  if (!((m >> slot) & 1u)) return getBit(p, sdagUniformBit(p, slot - below));
   const uint32_t n = popcount16(m);
   return uint32_t(sdagNodeChildOf<F, H>(data, dir, p, n, below, sdagNodeFlags(p, n)) - data);
 }
@@ -637,9 +655,10 @@ SOMM_ENCODE_INLINE uint32_t sdagStepDown(const uint8_t* data, const SdagDirector
   const uint32_t k = sdagRegion(F, h - 1u);
   const uint32_t slot = (index >> (4u * (h - 1u))) & 15u, m = load16(p),
                  below = popcount16(m & ((1u << slot) - 1u));
-  if (!((m >> slot) & 1u)) return getBit(p, 16u + slot - below);
+  if (!((m >> slot) & 1u)) return getBit(p, sdagUniformBit(p, slot - below));
   const uint32_t n = popcount16(m);
-  return sdagChildAt(dir, p, at, 32u - n, n, below, k, h == 2u ? 2u * b : 0u, sdagNodeFlags(p, n));
+  const SdagFlags fx = sdagNodeFlags(p, n);
+  return sdagChildAt(dir, p, at, fx.pos, n, below, k, h == 2u ? 2u * b : 0u, fx.x);
 }
 template <Format F>
 inline State sdagStateAs(const uint8_t* data, const SdagDirectory& dir, uint32_t offset, uint32_t level,

@@ -567,6 +567,18 @@ uint32_t nodeChildren(const Key& k, uint32_t slots) {
   return n;
 }
 
+// Whether the uniform children (codes < kNodeCode) of a 16-slot record all hold one state (true when there is at
+// most one): its states field is then E = 0 and that state.
+bool sdagUniformStatesAgree(const Key& k) {
+  uint32_t first = kNodeCode;
+  for (uint32_t s = 0; s < 16; ++s)
+    if (k[s] < kNodeCode) {
+      if (first == kNodeCode) first = k[s];
+      if (k[s] != first) return false;
+    }
+  return true;
+}
+
 // Per region: the records stored in the region in emission order (most used first; the local ones are not
 // listed: each is stored right after its only parent, include/somm/encode.h), each record's reference (leaf number
 // or byte offset in the region; for a local record its byte offset from its parent's first byte), the record's
@@ -601,10 +613,19 @@ struct SdagLayout {
   }
 };
 
+// Bits of the uniform children's states of a record of `slots` children, n of them nodes: 1 bit each in a 4-way
+// root; in a 16-slot record none (n = 16), or the flag E and one state for all (2 bits) when they agree, else E and
+// 1 bit each (version 7).
+uint32_t sdagKeyStatesBits(const Key& k, uint32_t slots, uint32_t n) {
+  if (slots != 16) return slots - n;
+  if (n == 16) return 0;
+  return sdagUniformStatesAgree(k) ? 2 : 17 - n;
+}
+
 // Bytes of a record of `slots` children whose node children are in region `below`.
 uint64_t sdagNodeBytes(const Key& k, uint32_t slots, const SdagLayout& l, uint32_t below) {
   const uint32_t n = nodeChildren(k, slots);
-  uint64_t bits = slots + (slots - n) + (l.tier[below] != 0 ? n : 0);  // uniform states: 1 bit each
+  uint64_t bits = slots + sdagKeyStatesBits(k, slots, n) + (l.tier[below] != 0 ? n : 0);
   for (uint32_t s = 0; s < slots; ++s)
     if (k[s] >= kNodeCode) {
       bits += l.refBits(below, k[s] - kNodeCode);
@@ -869,8 +890,18 @@ void putSdagNode(BitWriter& out, const Key& k, uint32_t slots, const SdagLayout&
   for (uint32_t s = 0; s < slots; ++s)
     if (k[s] >= kNodeCode) m |= 1u << s;
   out.put(m, slots);
-  for (uint32_t s = 0; s < slots; ++s)
-    if (k[s] < kNodeCode) out.put(k[s], 1);
+  if (slots == 16 && m != 0xffffu) {
+    const bool agree = sdagUniformStatesAgree(k);
+    out.put(agree ? 0 : 1, 1);  // E
+    for (uint32_t s = 0; s < slots; ++s)
+      if (k[s] < kNodeCode) {
+        out.put(k[s], 1);
+        if (agree) break;
+      }
+  } else {
+    for (uint32_t s = 0; s < slots; ++s)
+      if (k[s] < kNodeCode) out.put(k[s], 1);
+  }
   if (l.tier[below] != 0)
     for (uint32_t s = 0; s < slots; ++s)
       if (k[s] >= kNodeCode) out.put(l.isShort(below, k[s] - kNodeCode) ? 1 : 0, 1);
@@ -1034,26 +1065,37 @@ std::vector<uint8_t> emitCsm(DagTables& tables, const std::vector<DagRoot>& root
 
 // ---- decoding (trusted) ----
 
+// Where the flags start in a record of `slots` children (16: a node record, 4: a 4-way root), n of them nodes: after
+// the mask and the uniform children's states (a 4-way root: 1 bit each; a node record: include/somm/encode.h
+// sdagStatesBits). The byte holding bit 16 must be readable when slots = 16 and n < 16.
+uint32_t sdagFlagsPos(const uint8_t* p, uint32_t slots, uint32_t n) {
+  return slots == 16 ? 16u + sdagStatesBits(n, p[2] & 1u) : slots + (slots - n);
+}
+// The bit holding the state of uniform child number u of such a record.
+uint32_t sdagStatePos(const uint8_t* p, uint32_t slots, uint32_t u) {
+  return slots == 16 ? sdagUniformBit(p, u) : slots + u;
+}
+
 void sdagFill(const uint8_t* data, const SdagDirectory& dir, const uint8_t* p, Format f, uint32_t h,
               uint32_t slots, uint64_t start, Micromap& out) {
   if (h == 0) {  // a leaf's states (slots = 16) or a level-0/1 root byte
     for (uint32_t s = 0; s < slots; ++s) out.set(uint32_t(start + s), getValue(p, 0, f, s));
     return;
   }
-  const uint32_t mbits = slots, m = slots == 16 ? load16(p) : p[0] & 15u;
+  const uint32_t m = slots == 16 ? load16(p) : p[0] & 15u;
   const uint32_t k = sdagRegion(f, h), n = popcount64(m);
   const uint64_t span = uint64_t(1) << (4 * h);
   uint32_t ui = 0, ni = 0;
   for (uint32_t s = 0; s < slots; ++s) {
     if ((m >> s) & 1u) {
-      const uint8_t* c = data + sdagChildAt(dir, p, uint32_t(p - data), mbits + (slots - n), n, ni++, k,
+      const uint8_t* c = data + sdagChildAt(dir, p, uint32_t(p - data), sdagFlagsPos(p, slots, n), n, ni++, k,
                                             h == 1 ? 2 * bitsPerState(f) : 0u);
       if (h == 1)
         sdagFill(data, dir, c, f, 0, 16, start + s * span, out);
       else
         sdagFill(data, dir, c, f, h - 1, 16, start + s * span, out);
     } else {
-      fillRange(out, start + s * span, span, State(getBit(p, mbits + ui++)));
+      fillRange(out, start + s * span, span, State(getBit(p, sdagStatePos(p, slots, ui++))));
     }
   }
 }
@@ -1107,7 +1149,8 @@ struct SdagChecker {
     if (h == 0 && m != 0) return false;
     const uint32_t k = h == 0 ? 0 : sdagRegion(f, h);
     const uint32_t w = h == 0 ? 0 : dir.width[k], t = h == 0 ? 0 : dir.tier[k], u = h == 0 ? 0 : dir.mid[k];
-    const uint32_t pos = slots + (slots - n);
+    if (slots == 16 && n < 16 && avail < 3) return false;  // the states field's flag E
+    const uint32_t pos = sdagFlagsPos(p, slots, n);
     if ((pos + (t != 0 ? n : 0) + 7) / 8 > avail) return false;                                    // F
     if (u != 0 && (pos + n + (n - popcount64(getBits(p, pos, n))) + 7) / 8 > avail) return false;  // G
     const bool hf = h == 1 && dir.local[k] != 0;  // H flags (a leaf region with local leaves)
@@ -1242,9 +1285,10 @@ uint64_t newIdentity() {
   return next.fetch_add(1, std::memory_order_relaxed);
 }
 
-constexpr uint32_t kMagic = 0x434e4553;   // "SENC"
-constexpr uint8_t kVersion = 1;           // arrays without the sdag directory
-constexpr uint8_t kVersionDirectory = 6;  // arrays with it (104-byte directory with local references)
+constexpr uint32_t kMagic = 0x434e4553;  // "SENC"
+constexpr uint8_t kVersion = 1;          // arrays without the sdag directory
+constexpr uint8_t kVersionDirectory =
+    7;  // arrays with it (104-byte directory, local references, states field)
 // Retired layouts of arrays with the sdag directory: refused with what they were.
 struct RetiredVersion {
   uint8_t version;
@@ -1255,6 +1299,7 @@ constexpr RetiredVersion kRetiredVersions[] = {
     {3, "the sdag layout with 2-bit uniform states"},
     {4, "the sdag layout with the 80-byte directory and no rank-packed index buffer"},
     {5, "the sdag layout with the 96-byte directory, without local references"},
+    {6, "the sdag layout with one bit per uniform child in every node record"},
 };
 
 }  // namespace
@@ -1589,7 +1634,7 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
                          "encoded array version 1 with the old sdag layout is no longer supported "
                          "(encode the micromaps again)");
   if (p[4] == kVersionDirectory && (p[7] & 1) != 1)
-    return bad("encoded array version 6 without the sdag directory");
+    return bad("encoded array version 7 without the sdag directory");
   if (p[5] >= kEncodingCount) return bad("unknown encoding id " + std::to_string(p[5]));
   const bool packed = p[4] == kVersionDirectory;
   if (!packed && p[6] != 2 && p[6] != 4) return bad("index size must be 2 or 4 bytes");

@@ -544,7 +544,7 @@ TEST(EncodeDag, WorkedExampleLayouts) {
   EXPECT_EQ(sdag.data()[105], 0x00);
   EXPECT_EQ(sdag.data()[106], 0x2c);
   EXPECT_EQ(sdag.serialize()[4],
-            6u);  // arrays with the directory (and the packed index buffer) are version 6
+            7u);  // arrays with the directory (and the packed index buffer) are version 7
   EXPECT_EQ(sdag.serialize()[7], 1u);  // the directory; the index buffer is not rank-packed (5 triangles)
   EXPECT_EQ(sdag.serialize()[6], 3u);  // one map: k = bits for 0 .. 1 + 3
   // triangles 0..4 → map 0, then -1..-4 as 7, 6, 5, 4 (3 bits each): 0x4bb8
@@ -593,8 +593,8 @@ TEST(EncodeDag, WorkedExampleTieredReferences) {
   ASSERT_FALSE(old);
   EXPECT_EQ(old.error().code, ErrorCode::UnsupportedFormat);
   EXPECT_NE(old.error().message.find("old sdag layout"), std::string::npos) << old.error().message;
-  // Versions 2..5 (the retired sdag layouts) are refused clearly too, naming the version and what to do.
-  for (uint8_t v : {2, 3, 4, 5}) {
+  // Versions 2..6 (the retired sdag layouts) are refused clearly too, naming the version and what to do.
+  for (uint8_t v : {2, 3, 4, 5, 6}) {
     bytes[4] = v;
     const auto r = EncodedArray::parse(bytes, "old.somm");
     ASSERT_FALSE(r) << int(v);
@@ -607,6 +607,8 @@ TEST(EncodeDag, WorkedExampleTieredReferences) {
   bytes[4] = 5;
   EXPECT_NE(EncodedArray::parse(bytes).error().message.find("96-byte directory, without local references"),
             std::string::npos);
+  bytes[4] = 6;
+  EXPECT_NE(EncodedArray::parse(bytes).error().message.find("one bit per uniform child"), std::string::npos);
 }
 
 // docs/encodings.md's worked example with local leaves: slots 0..12 hold the leaf 0x00ff, slots 13, 14, 15 the
@@ -649,20 +651,22 @@ TEST(EncodeDag, WorkedExampleLocalLeaves) {
 }
 
 // docs/encodings.md's third worked example: 4-state uniform children take 1 bit; a uniformly unknown child is a
-// node child referring to the uniform leaf.
+// node child referring to the uniform leaf. The uniform children disagree (slot 1 opaque, slots 3..15 transparent):
+// E = 1 and one bit each.
 TEST(EncodeDag, WorkedExampleUnknownUniformChild) {
   Micromap m(4, Format::FourState);
   for (uint32_t i = 0; i < 16; ++i) m.set(i, State::UnknownOpaque);
   for (uint32_t i = 16; i < 32; ++i) m.set(i, State::Opaque);
   for (uint32_t i = 32; i < 48; ++i) m.set(i, State(i % 4));
   const EncodedArray sdag = EncodedArray::build(arrayOf({m}), Encoding::Sdag).value();
-  const std::vector<uint8_t> regions{0xff, 0xff, 0xff, 0xff, 0xe4, 0xe4, 0xe4, 0xe4, 0x05, 0x00, 0x01, 0x80};
-  ASSERT_EQ(sdag.dataBytes(), 116u);
-  EXPECT_EQ(std::vector<uint8_t>(sdag.data().begin() + 104, sdag.data().begin() + 116), regions);
+  const std::vector<uint8_t> regions{0xff, 0xff, 0xff, 0xff, 0xe4, 0xe4, 0xe4,
+                                     0xe4, 0x05, 0x00, 0x03, 0x00, 0x01};
+  ASSERT_EQ(sdag.dataBytes(), 117u);
+  EXPECT_EQ(std::vector<uint8_t>(sdag.data().begin() + 104, sdag.data().begin() + 117), regions);
   const encode::SdagDirectory& dir = sdag.directory();
   for (uint32_t k = 0; k <= 6; ++k) EXPECT_EQ(dir.base[k], 104u);
   EXPECT_EQ(dir.base[7], 112u);
-  for (uint32_t k = 8; k <= encode::kSdagRegions; ++k) EXPECT_EQ(dir.base[k], 116u);
+  for (uint32_t k = 8; k <= encode::kSdagRegions; ++k) EXPECT_EQ(dir.base[k], 117u);
   EXPECT_EQ(dir.width[6], 1u);
   EXPECT_EQ(dir.tier[6], 0u);
   EXPECT_EQ(dir.local[6], 0u);
@@ -672,6 +676,33 @@ TEST(EncodeDag, WorkedExampleUnknownUniformChild) {
   EXPECT_EQ(sdag.state(0, 39), State::UnknownOpaque);
   EXPECT_EQ(sdag.state(0, 200), State::Transparent);
   for (uint32_t i = 0; i < 256; ++i) EXPECT_EQ(sdag.state(0, i), m.get(i)) << i;
+  EXPECT_EQ(EncodedArray::parse(sdag.serialize()).value(), sdag);
+}
+
+// The same map with slot 1 transparent too: the uniform children agree, so the root holds E = 0 and one state bit
+// for all of them (2 bits instead of 14), and its references follow at bit 18.
+TEST(EncodeDag, WorkedExampleAgreeingUniformChildren) {
+  Micromap m(4, Format::FourState);
+  for (uint32_t i = 0; i < 16; ++i) m.set(i, State::UnknownOpaque);
+  for (uint32_t i = 32; i < 48; ++i) m.set(i, State(i % 4));
+  const EncodedArray sdag = EncodedArray::build(arrayOf({m}), Encoding::Sdag).value();
+  const std::vector<uint8_t> regions{0xff, 0xff, 0xff, 0xff, 0xe4, 0xe4, 0xe4, 0xe4, 0x05, 0x00, 0x08};
+  ASSERT_EQ(sdag.dataBytes(), 115u);
+  EXPECT_EQ(std::vector<uint8_t>(sdag.data().begin() + 104, sdag.data().begin() + 115), regions);
+  EXPECT_EQ(sdag.maps()[0].offset, 112u);
+  EXPECT_EQ(sdag.state(0, 5), State::UnknownOpaque);   // slot 0: reference 0 at bit 18
+  EXPECT_EQ(sdag.state(0, 20), State::Transparent);    // slot 1: the one state, bit 17
+  EXPECT_EQ(sdag.state(0, 39), State::UnknownOpaque);  // slot 2: reference 1 at bit 19
+  for (uint32_t i = 0; i < 256; ++i) EXPECT_EQ(sdag.state(0, i), m.get(i)) << i;
+  // Every opaque instead: the one state bit is 1.
+  Micromap o = m;
+  for (uint32_t i = 16; i < 32; ++i) o.set(i, State::Opaque);
+  for (uint32_t i = 48; i < 256; ++i) o.set(i, State::Opaque);
+  const EncodedArray so = EncodedArray::build(arrayOf({o}), Encoding::Sdag).value();
+  ASSERT_EQ(so.dataBytes(), 115u);
+  EXPECT_EQ(so.data()[114], 0x0a);
+  for (uint32_t i = 0; i < 256; ++i) EXPECT_EQ(so.state(0, i), o.get(i)) << i;
+  EXPECT_EQ(EncodedArray::parse(so.serialize()).value(), so);
 }
 
 // The packed index buffer of sdag arrays: k = sdagIndexBits(M) bits per triangle, specials as the k-bit two's
@@ -735,7 +766,7 @@ TEST(EncodeDag, RankPackedIndexBuffer) {
   ASSERT_EQ(e.indexBufferBytes(), 34u);  // 4 group words + 5 entries of 3 bits (plain: 300 bits = 38 bytes)
   EXPECT_EQ(packedIndexBufferBytes(arr.indices, 2), 34u);
   const std::vector<uint8_t> bytes = e.serialize();
-  EXPECT_EQ(bytes[4], 6u);
+  EXPECT_EQ(bytes[4], 7u);
   EXPECT_EQ(bytes[7], 3u);  // the directory + the rank-packed index buffer
   const std::vector<uint8_t> index{
       0x00, 0x00, 0x00, 0x00, 0x02, 0x00, 0x00, 0x00,  // group 0: 0 listed before, triangle 1

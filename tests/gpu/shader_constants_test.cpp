@@ -130,7 +130,7 @@ TEST(ShaderConstants, ArrayHeaderFieldsWhereTheShaderReadsThem) {
       const bool packed = (b[7] & 1u) != 0, rank = (b[7] & 2u) != 0;
       EXPECT_EQ(packed, a->hasDirectory());
       EXPECT_EQ(rank, a->indexRankPacked());
-      EXPECT_EQ(b[4], packed ? 6u : 1u);
+      EXPECT_EQ(b[4], packed ? 7u : 1u);
       EXPECT_EQ(b[6], packed ? uint8_t(a->indexBits()) : uint8_t(a->indexType()));
       if (packed) {
         EXPECT_EQ(a->indexBits(), somm::encode::sdagIndexBits(a->mapCount()));

@@ -60,7 +60,7 @@ void sdagVisit(const uint8_t* data, const somm::encode::SdagDirectory& dir, somm
   }
   const uint32_t k = sdagRegion(f, h - 1);
   const uint8_t* p = data + off;
-  const uint32_t m = load16(p), n = popcount64(m), pos = 32 - n;
+  const uint32_t m = load16(p), n = popcount64(m), pos = sdagNodeFlags(p, n).pos;
   const bool hf = h == 2 && dir.local[k] != 0;
   out.push_back(
       {h, off, (pos + sdagRefBits(p, pos, n, dir.width[k], dir.tier[k], dir.mid[k], hf) + 7) / 8, local});
@@ -117,11 +117,11 @@ void printSdagAnalysis(const somm::EncodedArray& a) {
     const uint64_t off = rec.offset;
     const uint8_t* p = data + off;
     const uint32_t m = load16(p), n = popcount64(m);
-    const uint32_t pos = 32 - n, w = dir.width[k1], t = dir.tier[k1], u = dir.mid[k1];
-    // The uniform children's states: 1 bit each (0 transparent, 1 opaque; a uniformly unknown child is a node).
+    const uint32_t pos = sdagNodeFlags(p, n).pos, w = dir.width[k1], t = dir.tier[k1], u = dir.mid[k1];
+    // The uniform children's states (0 transparent, 1 opaque; a uniformly unknown child is a node).
     uint64_t st = 0;
     for (uint32_t i = 0; i < 16 - n; ++i) {
-      const uint32_t s = getBit(p, 16 + i);
+      const uint32_t s = getBit(p, sdagUniformBit(p, i));
       ++stHist[s];
       st |= uint64_t(s) << i;
     }
@@ -139,7 +139,7 @@ void printSdagAnalysis(const somm::EncodedArray& a) {
     const uint32_t rb = sdagRefBits(p, pos, n, w, t, u, hf);
     const uint32_t bytes = (pos + rb + 7) / 8;
     maskBits += 16;
-    stateBits += 16 - n;
+    stateBits += pos - 16;
     const uint32_t sh = t ? popcount64(getBits(p, pos, n)) : 0, gl = t && u ? n - sh : 0;
     const uint32_t mids = gl ? popcount64(getBits(p, pos + n, gl)) : 0;
     const uint32_t flags = (t ? n : 0) + gl + (hf ? n - sh - mids : 0);  // F, G and H
@@ -177,7 +177,7 @@ void printSdagAnalysis(const somm::EncodedArray& a) {
     if (rec.height != 3) continue;
     const uint8_t* p = data + rec.offset;
     const uint32_t m = load16(p), n = popcount64(m);
-    const uint32_t pos = 32 - n, w = dir.width[k2], t = dir.tier[k2], u = dir.mid[k2];
+    const uint32_t pos = sdagNodeFlags(p, n).pos, w = dir.width[k2], t = dir.tier[k2], u = dir.mid[k2];
     for (uint32_t j = 0; j < n; ++j)
       ++h2use[sdagChildInfo(data, dir, somm::Format::FourState, 2, rec.offset, pos, n, j).first];
     const uint32_t rb = sdagRefBits(p, pos, n, w, t, u);
@@ -647,7 +647,7 @@ int run(const Options& o) {
                 if (rec.height != h) continue;
                 const uint8_t* p = data + rec.offset;
                 const uint32_t m = somm::encode::load16(p), n = somm::encode::popcount64(m);
-                const uint32_t pos = 32 - n;
+                const uint32_t pos = somm::encode::sdagNodeFlags(p, n).pos;
                 if (h == 2)
                   for (uint32_t i = 0; i < n; ++i)
                     ++leafRefs[leafNo.at(

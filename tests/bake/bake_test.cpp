@@ -16,6 +16,18 @@ namespace {
 
 using testing::makeTexture;
 
+// A random rectangle [x0, x1] × [y0, y1] inside a w × h texture (corners in either order, sorted).
+struct Rect {
+  int64_t x0, x1, y0, y1;
+};
+Rect randomRect(std::mt19937& rng, uint32_t w, uint32_t h) {
+  std::uniform_int_distribution<int64_t> dx(0, w - 1), dy(0, h - 1);
+  Rect r{dx(rng), dx(rng), dy(rng), dy(rng)};
+  if (r.x0 > r.x1) std::swap(r.x0, r.x1);
+  if (r.y0 > r.y1) std::swap(r.y0, r.y1);
+  return r;
+}
+
 // Brute force over every texel of the wrapped rectangle.
 TEST(AlphaMask, CountMatchesBruteForceForEveryWrap) {
   const AlphaTexture tex =
@@ -66,11 +78,8 @@ TEST(AlphaMask, CountsOfIntegerTexturesAreExact) {
       }
       ASSERT_TRUE(tex.consistent());
       const AlphaMask mask(tex, Sampler{}, 0.37f);
-      std::uniform_int_distribution<int64_t> dx(0, w - 1), dy(0, h - 1);
       for (int k = 0; k < 200; ++k) {
-        int64_t x0 = dx(rng), x1 = dx(rng), y0 = dy(rng), y1 = dy(rng);
-        if (x0 > x1) std::swap(x0, x1);
-        if (y0 > y1) std::swap(y0, y1);
+        const auto [x0, x1, y0, y1] = randomRect(rng, w, h);
         uint64_t pass = 0;
         for (int64_t y = y0; y <= y1; ++y)
           for (int64_t x = x0; x <= x1; ++x) pass += tex.at(uint32_t(x), uint32_t(y)) >= 0.37f;
@@ -104,11 +113,8 @@ TEST(AlphaMask, PassFailOfTallRectanglesOverUniformColumns) {
     const AlphaTexture tex =
         makeTexture(w, h, [&](uint32_t x, uint32_t y) { return a[size_t(y) * w + x] / 255.0; });
     const AlphaMask mask(tex, Sampler{}, 0.5f);
-    std::uniform_int_distribution<int64_t> dx(0, w - 1), dy(0, h - 1);
     for (int k = 0; k < 3000; ++k) {
-      int64_t x0 = dx(rng), x1 = dx(rng), y0 = dy(rng), y1 = dy(rng);
-      if (x0 > x1) std::swap(x0, x1);
-      if (y0 > y1) std::swap(y0, y1);
+      auto [x0, x1, y0, y1] = randomRect(rng, w, h);
       if (k % 2 == 0) y1 = std::min<int64_t>(h - 1, y0 + 8 + k % 40);  // tall
       bool anyPass = false, anyFail = false;
       for (int64_t y = y0; y <= y1; ++y)

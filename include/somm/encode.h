@@ -491,10 +491,18 @@ struct SdagFlags {
   uint32_t pos;
   uint64_t x;
 };
-SOMM_ENCODE_INLINE SdagFlags sdagNodeFlags(const uint8_t* p, uint32_t n) noexcept {
-  const uint64_t y = load64(p + 2);
+// y: the record's bits from bit 16 (load64(p + 2)).
+SOMM_ENCODE_INLINE SdagFlags sdagFlagsFrom(uint64_t y, uint32_t n) noexcept {
   const uint32_t sl = sdagStatesBits(n, uint32_t(y) & 1u);
   return {16u + sl, y >> sl};
+}
+SOMM_ENCODE_INLINE SdagFlags sdagNodeFlags(const uint8_t* p, uint32_t n) noexcept {
+  return sdagFlagsFrom(load64(p + 2), n);
+}
+// The state (0 or 1) of uniform child number u of such a record, from its bits y from bit 16 (bit 17 + u of the
+// record when E = 1, else bit 17): no load of its own.
+SOMM_ENCODE_INLINE uint32_t sdagUniformState(uint64_t y, uint32_t u) noexcept {
+  return uint32_t(y >> (1u + sdagPick(uint32_t(y) & 1u, u, 0u))) & 1u;
 }
 // Bits of the references (with their flags) of such a record (h: with the H flags of a local leaf region).
 inline uint32_t sdagRefBits(const uint8_t* p, uint32_t pos, uint32_t n, uint32_t w, uint32_t tier,
@@ -594,9 +602,10 @@ SOMM_ENCODE_INLINE State sdagNodeStep(const uint8_t* data, const SdagDirectory& 
                                       uint32_t index) noexcept {
   const uint32_t slot = (index >> (4u * (H - 1u))) & 15u, m = load16(p),
                  below = popcount16(m & ((1u << slot) - 1u));
-  if (!((m >> slot) & 1u)) return State(getBit(p, sdagUniformBit(p, slot - below)));
+  const uint64_t y = load64(p + 2);
+  if (!((m >> slot) & 1u)) return State(sdagUniformState(y, slot - below));
   const uint32_t n = popcount16(m);
-  const uint8_t* c = sdagNodeChildOf<F, H>(data, dir, p, n, below, sdagNodeFlags(p, n));
+  const uint8_t* c = sdagNodeChildOf<F, H>(data, dir, p, n, below, sdagFlagsFrom(y, n));
   if constexpr (H == 2) {
     return sdagLeafState<F>(c, index & 15u);
   } else {
@@ -610,9 +619,10 @@ SOMM_ENCODE_INLINE uint32_t sdagNodeChild(const uint8_t* data, const SdagDirecto
                                           uint32_t index) noexcept {
   const uint32_t slot = (index >> (4u * (H - 1u))) & 15u, m = load16(p),
                  below = popcount16(m & ((1u << slot) - 1u));
-  if (!((m >> slot) & 1u)) return getBit(p, sdagUniformBit(p, slot - below));
+  const uint64_t y = load64(p + 2);
+  if (!((m >> slot) & 1u)) return sdagUniformState(y, slot - below);
   const uint32_t n = popcount16(m);
-  return uint32_t(sdagNodeChildOf<F, H>(data, dir, p, n, below, sdagNodeFlags(p, n)) - data);
+  return uint32_t(sdagNodeChildOf<F, H>(data, dir, p, n, below, sdagFlagsFrom(y, n)) - data);
 }
 template <Format F>
 inline State sdagNodeWalk(const uint8_t* data, const SdagDirectory& dir, const uint8_t* p, uint32_t h,
@@ -655,9 +665,10 @@ SOMM_ENCODE_INLINE uint32_t sdagStepDown(const uint8_t* data, const SdagDirector
   const uint32_t k = sdagRegion(F, h - 1u);
   const uint32_t slot = (index >> (4u * (h - 1u))) & 15u, m = load16(p),
                  below = popcount16(m & ((1u << slot) - 1u));
-  if (!((m >> slot) & 1u)) return getBit(p, sdagUniformBit(p, slot - below));
+  const uint64_t y = load64(p + 2);
+  if (!((m >> slot) & 1u)) return sdagUniformState(y, slot - below);
   const uint32_t n = popcount16(m);
-  const SdagFlags fx = sdagNodeFlags(p, n);
+  const SdagFlags fx = sdagFlagsFrom(y, n);
   return sdagChildAt(dir, p, at, fx.pos, n, below, k, h == 2u ? 2u * b : 0u, fx.x);
 }
 template <Format F>

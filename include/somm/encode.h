@@ -408,10 +408,6 @@ SOMM_ENCODE_INLINE uint32_t sdagPick(uint32_t bit, uint32_t a, uint32_t b) noexc
 SOMM_ENCODE_INLINE uint32_t sdagStatesBits(uint32_t n, uint32_t e) noexcept {
   return n == 16u ? 0u : sdagPick(e, 17u - n, 2u);
 }
-// The bit holding the state of uniform child number u (= slot - below) of such a record (n < 16).
-SOMM_ENCODE_INLINE uint32_t sdagUniformBit(const uint8_t* p, uint32_t u) noexcept {
-  return 17u + sdagPick(p[2] & 1u, u, 0u);
-}
 // The record's bits from bit pos on (at least 56 of them), in one unaligned load.
 SOMM_ENCODE_INLINE uint64_t sdagBitsFrom(const uint8_t* p, uint32_t pos) noexcept {
   return load64(p + (pos >> 3)) >> (pos & 7u);

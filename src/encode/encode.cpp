@@ -1071,9 +1071,9 @@ std::vector<uint8_t> emitCsm(DagTables& tables, const std::vector<DagRoot>& root
 uint32_t sdagFlagsPos(const uint8_t* p, uint32_t slots, uint32_t n) {
   return slots == 16 ? 16u + sdagStatesBits(n, p[2] & 1u) : slots + (slots - n);
 }
-// The bit holding the state of uniform child number u of such a record.
-uint32_t sdagStatePos(const uint8_t* p, uint32_t slots, uint32_t u) {
-  return slots == 16 ? sdagUniformBit(p, u) : slots + u;
+// The state of uniform child number u of such a record.
+State sdagUniformChild(const uint8_t* p, uint32_t slots, uint32_t u) {
+  return State(slots == 16 ? sdagUniformState(load64(p + 2), u) : getBit(p, slots + u));
 }
 
 void sdagFill(const uint8_t* data, const SdagDirectory& dir, const uint8_t* p, Format f, uint32_t h,
@@ -1095,7 +1095,7 @@ void sdagFill(const uint8_t* data, const SdagDirectory& dir, const uint8_t* p, F
       else
         sdagFill(data, dir, c, f, h - 1, 16, start + s * span, out);
     } else {
-      fillRange(out, start + s * span, span, State(getBit(p, sdagStatePos(p, slots, ui++))));
+      fillRange(out, start + s * span, span, sdagUniformChild(p, slots, ui++));
     }
   }
 }
@@ -1287,8 +1287,8 @@ uint64_t newIdentity() {
 
 constexpr uint32_t kMagic = 0x434e4553;  // "SENC"
 constexpr uint8_t kVersion = 1;          // arrays without the sdag directory
-constexpr uint8_t kVersionDirectory =
-    7;  // arrays with it (104-byte directory, local references, states field)
+// Arrays with the sdag directory (104 bytes, local references, the node records' uniform-states field).
+constexpr uint8_t kVersionDirectory = 7;
 // Retired layouts of arrays with the sdag directory: refused with what they were.
 struct RetiredVersion {
   uint8_t version;

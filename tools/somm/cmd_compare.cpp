@@ -121,7 +121,7 @@ void printSdagAnalysis(const somm::EncodedArray& a) {
     // The uniform children's states (0 transparent, 1 opaque; a uniformly unknown child is a node).
     uint64_t st = 0;
     for (uint32_t i = 0; i < 16 - n; ++i) {
-      const uint32_t s = getBit(p, sdagUniformBit(p, i));
+      const uint32_t s = sdagUniformState(load64(p + 2), i);
       ++stHist[s];
       st |= uint64_t(s) << i;
     }

@@ -155,12 +155,15 @@ inline constexpr auto kBytePopcount = [] {
 #if defined(__GNUC__) || defined(__clang__)
 #define SOMM_ENCODE_INLINE __attribute__((always_inline)) inline
 #define SOMM_ENCODE_COLD __attribute__((noinline, cold))
+#define SOMM_ENCODE_NOINLINE __attribute__((noinline))
 #elif defined(_MSC_VER)
 #define SOMM_ENCODE_INLINE __forceinline
 #define SOMM_ENCODE_COLD __declspec(noinline)
+#define SOMM_ENCODE_NOINLINE __declspec(noinline)
 #else
 #define SOMM_ENCODE_INLINE inline
 #define SOMM_ENCODE_COLD
+#define SOMM_ENCODE_NOINLINE
 #endif
 
 // Population count of a 16-bit value (DAG masks and flags): the instruction when the build targets it, else two
@@ -694,13 +697,15 @@ struct SdagMemo {
     uint64_t array = 0;  // 0: empty (identities start at 1)
     uint32_t triangle = 0;
     uint32_t root = 0;  // the map's descriptor offset, or (kind 2) the special index's state
-    uint8_t level = 0, format = 0, kind = 0;  // kind: 0 a DAG map, 1 a flat map, 2 a special index
-    uint8_t grand = 0;                        // the map's grandchild table is SdagMemo::grand[grand] ...
-    uint16_t topValid = 0;                    // bit s: top[s] holds the root's child in slot s
-    uint8_t slotShift = 0, hShift = 0;        // level >= 4: index >> slotShift = the root's slot; the root's
-                                              // children's height h = hShift / 4 + 1
-    uint64_t grandGen = ~uint64_t(0);         // ... while its gen equals this (~0: no table)
-    uint32_t top[16] = {};                    // the root's children (byte offsets, or uniform states < 4)
+    uint8_t level = 0, format = 0,
+            kind = 0;                   // kind: 0 a DAG map, 1 a flat map, 2 a special index, 3 a DAG map
+                                        // of level >= 9 with a deep table
+    uint8_t grand = 0;                  // the map's table is SdagMemo::grand[grand] (deep[grand]: kind 3) ...
+    uint16_t topValid = 0;              // bit s: top[s] holds the root's child in slot s
+    uint8_t slotShift = 0, hShift = 0;  // level >= 4: index >> slotShift = the root's slot; the root's
+                                        // children's height h = hShift / 4 + 1
+    uint64_t grandGen = ~uint64_t(0);   // ... while its gen equals this (~0: no table)
+    uint32_t top[16] = {};              // the root's children (byte offsets, or uniform states < 4)
   };
   // The root's children found so far per map (direct mapped by the root's offset), shared by the triangles of a
   // map: a triangle's entry, when (re)filled, starts from its map's children instead of finding each again (real
@@ -728,15 +733,34 @@ struct SdagMemo {
     uint32_t root = 0;
     uint8_t level = 0, format = 0;
     uint32_t stamp = 0;      // SdagMemo::fills when an entry of the owner was last filled
-    uint64_t gen = 0;        // bumped (from 1 on) whenever a map takes the table over
+    uint64_t gen = 0;        // a new SdagMemo::gens whenever a map takes the table over
     uint64_t valid[4] = {};  // bit g: at[g] holds the grandchild
     uint32_t at[256] = {};
   };
-  static constexpr uint32_t kGrandBits = 6, kGrandIdle = 64;
+  // The root's great-grandchildren found so far per map (4 tables, direct mapped by the root's offset; maps of
+  // level >= 9 in arrays of at most kGrandArrayMaps DAG roots): at[g] = the record's byte offset or the uniform
+  // state (< 4) covering the index range whose top bits (10 for an odd level, 12 for an even one) are g. A lookup
+  // whose entry's map holds one reads at[g] and walks on from there (levels 9 and 10: the height-2 record, then
+  // the leaf — the walk of level 8 from its grandchild table); a map holding a deep table takes no grandchild
+  // table (its entries are of kind 3). Taken over like a grandchild table (kGrandIdle, gen).
+  struct Deep {
+    uint64_t array = 0;  // 0: empty
+    uint32_t root = 0;
+    uint8_t level = 0, format = 0;
+    uint32_t stamp = 0;       // SdagMemo::fills when an entry of the owner was last filled
+    uint64_t gen = 0;         // a new SdagMemo::gens whenever a map takes the table over
+    uint64_t valid[64] = {};  // bit g: at[g] holds the great-grandchild
+    uint32_t at[4096] = {};
+  };
+  static constexpr uint32_t kGrandBits = 6, kGrandIdle = 64, kDeepBits = 2;
   uint32_t fills = 0;  // entries (re)filled so far
+  uint64_t gens =
+      0;  // table generations handed out so far (unique across every table: an entry's gen matches
+          // only the table that issued it)
   Entry entry[256];
   MapTop map[256];
   Grand grand[1u << kGrandBits];
+  Deep deep[1u << kDeepBits];
 };
 // Arrays of at most this many distinct DAG map roots keep grandchild tables (SdagMemo::Grand).
 inline constexpr uint64_t kGrandArrayMaps = 256;
@@ -760,6 +784,27 @@ inline bool sdagTableHolds(const Table& t, const SdagMemo::Entry& e) noexcept {
 inline uint32_t sdagGrandSlot(uint32_t root) noexcept {
   return (root * 0x9e3779b1u) >> (32u - SdagMemo::kGrandBits);
 }
+// The deep table slot of the map whose root record is at byte offset `root`.
+inline uint32_t sdagDeepSlot(uint32_t root) noexcept {
+  return (root * 0x9e3779b1u) >> (32u - SdagMemo::kDeepBits);
+}
+// Whether table t (Grand or Deep) can be entry e's map's: held by it (stamped now), else taken over when empty or
+// idle for more than kGrandIdle fills (a new generation, the valid bits cleared). e's gen for t, or ~0 (no table).
+template <class Table>
+inline uint64_t sdagTakeTable(Table& t, const SdagMemo::Entry& e, uint32_t now, uint64_t& gens) noexcept {
+  if (sdagTableHolds(t, e)) {
+    t.stamp = now;
+    return t.gen;
+  }
+  if (t.array != 0 && now - t.stamp <= SdagMemo::kGrandIdle) return ~uint64_t(0);
+  t.stamp = now;
+  t.array = e.array;
+  t.root = e.root;
+  t.level = e.level;
+  t.format = e.format;
+  std::memset(t.valid, 0, sizeof t.valid);
+  return t.gen = ++gens;
+}
 // The root's child covering `index` (see sdagMemoWalk), found and kept in the entry: out of line, so that the walk's
 // common path (the child already kept) needs few registers.
 template <Format F>
@@ -776,6 +821,36 @@ SOMM_ENCODE_COLD uint32_t sdagMemoTop(const uint8_t* data, const SdagDirectory& 
     t.valid = uint16_t(t.valid | (1u << slot));
   }
   return at;
+}
+// The root's great-grandchild covering `index` of a memo entry's map of level >= 8 (its byte offset — a leaf's at
+// level 8 — or a uniform state < 4), found from the root's child and kept in the entry's deep table d at g while
+// the entry's map holds it: out of line (each slot of a table is filled once). A uniform root's child or
+// grandchild fills every slot it covers (256 or 16).
+template <Format F>
+SOMM_ENCODE_COLD uint32_t sdagDeepMiss(const uint8_t* data, const SdagDirectory& dir, SdagMemo::Entry& e,
+                                       SdagMemo::Deep& d, uint32_t g, uint32_t index) noexcept {
+  const uint32_t slot = index >> e.slotShift,
+                 h = (e.hShift >> 2) + 1u;  // h >= 3: the root's children's height
+  uint32_t a = ((e.topValid >> slot) & 1u) ? e.top[slot] : sdagMemoTop<F>(data, dir, e, slot, index),
+           span = 256;
+  if (a >= 4) {
+    a = sdagStepDown<F>(data, dir, a, h, index);
+    span = 16;
+    if (a >= 4) {
+      a = sdagStepDown<F>(data, dir, a, h - 1u, index);
+      span = 1;
+    }
+  }
+  if (d.gen == e.grandGen) {
+    const uint32_t first = g & ~(span - 1u);
+    for (uint32_t k = first; k < first + span; ++k) d.at[k] = a;
+    if (span >= 64) {
+      for (uint32_t w = first >> 6; w < (first + span) >> 6; ++w) d.valid[w] = ~uint64_t(0);
+    } else {
+      d.valid[g >> 6] |= ((uint64_t(1) << span) - 1u) << (first & 63u);
+    }
+  }
+  return a;
 }
 // Maps of level < 4 (no kept children): from the root, out of line.
 template <Format F>
@@ -794,6 +869,17 @@ SOMM_ENCODE_INLINE State sdagMemoWalk(const uint8_t* data, const SdagDirectory& 
   if (level < 4) return sdagSmallState<F>(data, dir, e.root, level, index);
   const uint32_t slot = index >> e.slotShift, hs = e.hShift, h = (hs >> 2) + 1u;  // h: the child's height
   if constexpr (kGrand) {
+    if (e.kind == 3) {  // level >= 8: from the root's great-grandchild (a leaf at level 8)
+      SdagMemo::Deep& d = sdagMemo().deep[e.grand];
+      const uint32_t g = index >> (hs - 4u);
+      const uint32_t a = d.gen == e.grandGen && ((d.valid[g >> 6] >> (g & 63u)) & 1u)
+                             ? d.at[g]
+                             : sdagDeepMiss<F>(data, dir, e, d, g, index);
+      if (a < 4) return State(a);
+      if (h == 3) return sdagLeafState<F>(data + a, index & 15u);
+      if (h == 4) return sdagNodeStep<F, 2>(data, dir, data + a, index);
+      return sdagNodeWalk<F>(data, dir, data + a, h - 2u, index);
+    }
     if (h >= 2) {
       SdagMemo::Grand& t = sdagMemo().grand[e.grand];
       const uint32_t g = index >> hs;
@@ -1063,23 +1149,22 @@ class EncodedArray {
           t.valid = 0;
         }
         if (grand_ && e.level >= 5) {
-          // The map's grandchild table: its own, or taken over from a map idle for kGrandIdle fills, or none.
+          // The map's deep table (level >= 9), else its grandchild table: its own, or taken over from a map idle
+          // for kGrandIdle fills, or none.
           encode::SdagMemo& memo = encode::sdagMemo();
           const uint32_t now = ++memo.fills;
-          const uint32_t slot = encode::sdagGrandSlot(e.root);
-          encode::SdagMemo::Grand& g = memo.grand[slot];
-          e.grand = uint8_t(slot);
-          if (encode::sdagTableHolds(g, e)) {
-            g.stamp = now;
-            e.grandGen = g.gen;
-          } else if (g.array == 0 || now - g.stamp > encode::SdagMemo::kGrandIdle) {
-            e.grandGen = ++g.gen;
-            g.stamp = now;
-            g.array = e.array;
-            g.root = e.root;
-            g.level = e.level;
-            g.format = e.format;
-            g.valid[0] = g.valid[1] = g.valid[2] = g.valid[3] = 0;
+          if (e.level >= 8) {
+            const uint32_t slot = encode::sdagDeepSlot(e.root);
+            e.grandGen = encode::sdagTakeTable(memo.deep[slot], e, now, memo.gens);
+            if (e.grandGen != ~uint64_t(0)) {
+              e.kind = 3;
+              e.grand = uint8_t(slot);
+            }
+          }
+          if (e.kind == 0) {
+            const uint32_t slot = encode::sdagGrandSlot(e.root);
+            e.grand = uint8_t(slot);
+            e.grandGen = encode::sdagTakeTable(memo.grand[slot], e, now, memo.gens);
           }
         }
       }

@@ -1148,6 +1148,47 @@ TEST(EncodeDag, WalkMemoGrandTablesAnswerAsFlat) {
     }
   }
 }
+// The per-map deep tables of the sdag memo (maps of level >= 8 in arrays of at most 256 maps; 4 tables per thread,
+// at[g] = the root's great-grandchild: a leaf at level 8): 12 distinct maps of levels 8..12 over 40 triangles, so
+// that maps compete for the 4 tables (taken, kept while their entries are refilled, taken over after their owners
+// idle; a map left without one walks from its grandchild table or its root's child), lookups in runs over a few
+// triangles, interleaved with a second array of the same shapes but other states (its roots land in the same
+// tables). Every answer as flat, and the tables are used.
+TEST(EncodeDag, WalkMemoDeepTablesAnswerAsFlat) {
+  for (Format f : {Format::TwoState, Format::FourState}) {
+    std::mt19937 rng(f == Format::TwoState ? 41u : 42u);
+    std::vector<Micromap> maps;
+    for (uint32_t k = 0; k < 12; ++k) {
+      const uint32_t level = k < 10 ? 8 + k % 3 : 11 + k % 2;
+      maps.push_back(withOpaqueRun(cachedMap(k % 2 ? Pattern::Leaf : Pattern::Disc, level, f, 2), k));
+    }
+    OmmArray oracle = arrayOf(maps);
+    oracle.indices.clear();
+    for (uint32_t t = 0; t < 40; ++t) oracle.indices.push_back(int32_t(t < 12 ? t : rng() % 12));
+    OmmArray other = oracle;
+    for (uint8_t& byte : other.data) byte = uint8_t(~byte);  // every state changes (4-state: 0<->3, 1<->2)
+    const EncodedArray e = EncodedArray::build(oracle, Encoding::Sdag).value();
+    const EncodedArray o = EncodedArray::build(other, Encoding::Sdag).value();
+    ASSERT_TRUE(e.keepsGrandTables());
+    const uint32_t n = e.triangleCount();
+    std::vector<uint32_t> last(n, 0);
+    uint32_t held = 0;  // lookups made while one of e's maps held a deep table
+    for (uint32_t run = 0; run < 2000; ++run) {
+      const uint32_t first = rng() % n, width = 1 + rng() % 4;
+      const bool otherArray = rng() % 4 == 0;
+      for (uint32_t q = 0; q < 80; ++q) {
+        const uint32_t t = (first + rng() % width) % n, i = nextLookupIndex(rng, oracle, t, last[t], 16);
+        if (otherArray) {
+          ASSERT_EQ(o.state(t, i), other.state(t, i)) << int(f) << " other " << t << " " << i;
+        } else {
+          ASSERT_EQ(e.state(t, i), oracle.state(t, i)) << int(f) << " triangle " << t << " index " << i;
+        }
+      }
+      for (const encode::SdagMemo::Deep& d : encode::sdagMemo().deep) held += d.array == e.identity();
+    }
+    EXPECT_GT(held, 1000u);
+  }
+}
 // The deepest maps (levels 11 and 12: a 4-way root over height-5 records, a height-6 root) through the memo:
 // neighbouring, bit-flipped and random indices (successive lookups differing at every height 2..6), against flat.
 TEST(EncodeDag, WalkMemoRestartsAtEveryHeightOfLevels11And12) {

@@ -747,12 +747,13 @@ struct SdagMemo {
     uint64_t array = 0;  // 0: empty
     uint32_t root = 0;
     uint8_t level = 0, format = 0;
-    uint32_t stamp = 0;       // SdagMemo::fills when an entry of the owner was last filled
-    uint64_t gen = 0;         // a new SdagMemo::gens whenever a map takes the table over
-    uint64_t valid[64] = {};  // bit g: at[g] holds the great-grandchild
-    uint32_t at[4096] = {};
+    uint32_t stamp = 0;        // SdagMemo::fills when an entry of the owner was last filled
+    uint64_t gen = 0;          // a new SdagMemo::gens whenever a map takes the table over
+    uint32_t shift = 0;        // g = index >> shift
+    uint64_t valid[256] = {};  // bit g: at[g] holds the great-grandchild
+    uint32_t at[16384] = {};
   };
-  static constexpr uint32_t kGrandBits = 6, kGrandIdle = 64, kDeepBits = 2;
+  static constexpr uint32_t kGrandBits = 6, kGrandIdle = 64, kDeep = 4;
   uint32_t fills = 0;  // entries (re)filled so far
   uint64_t gens =
       0;  // table generations handed out so far (unique across every table: an entry's gen matches
@@ -760,7 +761,7 @@ struct SdagMemo {
   Entry entry[256];
   MapTop map[256];
   Grand grand[1u << kGrandBits];
-  Deep deep[1u << kDeepBits];
+  Deep deep[kDeep];
 };
 // Arrays of at most this many distinct DAG map roots keep grandchild tables (SdagMemo::Grand).
 inline constexpr uint64_t kGrandArrayMaps = 256;
@@ -784,10 +785,8 @@ inline bool sdagTableHolds(const Table& t, const SdagMemo::Entry& e) noexcept {
 inline uint32_t sdagGrandSlot(uint32_t root) noexcept {
   return (root * 0x9e3779b1u) >> (32u - SdagMemo::kGrandBits);
 }
-// The deep table slot of the map whose root record is at byte offset `root`.
-inline uint32_t sdagDeepSlot(uint32_t root) noexcept {
-  return (root * 0x9e3779b1u) >> (32u - SdagMemo::kDeepBits);
-}
+// The deep table for entry e's map: the one it holds, else the first empty or idle one (kGrandIdle), else kDeep.
+inline uint32_t sdagDeepPick(const SdagMemo& memo, const SdagMemo::Entry& e, uint32_t now) noexcept;
 // Whether table t (Grand or Deep) can be entry e's map's: held by it (stamped now), else taken over when empty or
 // idle for more than kGrandIdle fills (a new generation, the valid bits cleared). e's gen for t, or ~0 (no table).
 template <class Table>
@@ -804,6 +803,13 @@ inline uint64_t sdagTakeTable(Table& t, const SdagMemo::Entry& e, uint32_t now, 
   t.format = e.format;
   std::memset(t.valid, 0, sizeof t.valid);
   return t.gen = ++gens;
+}
+inline uint32_t sdagDeepPick(const SdagMemo& memo, const SdagMemo::Entry& e, uint32_t now) noexcept {
+  for (uint32_t k = 0; k < SdagMemo::kDeep; ++k)
+    if (sdagTableHolds(memo.deep[k], e)) return k;
+  for (uint32_t k = 0; k < SdagMemo::kDeep; ++k)
+    if (memo.deep[k].array == 0 || now - memo.deep[k].stamp > SdagMemo::kGrandIdle) return k;
+  return SdagMemo::kDeep;
 }
 // The root's child covering `index` (see sdagMemoWalk), found and kept in the entry: out of line, so that the walk's
 // common path (the child already kept) needs few registers.
@@ -826,23 +832,20 @@ SOMM_ENCODE_COLD uint32_t sdagMemoTop(const uint8_t* data, const SdagDirectory& 
 // level 8 — or a uniform state < 4), found from the root's child and kept in the entry's deep table d at g while
 // the entry's map holds it: out of line (each slot of a table is filled once). A uniform root's child or
 // grandchild fills every slot it covers (256 or 16).
+// The index bits below a deep table's records of entry e's map: 4 (leaves) at levels 8 and 9.
+inline uint32_t sdagDeepShift(const SdagMemo::Entry& e) noexcept {
+  return (e.level & 1u) ? e.hShift - 8u : e.hShift - 4u;
+}
 template <Format F>
 SOMM_ENCODE_COLD uint32_t sdagDeepMiss(const uint8_t* data, const SdagDirectory& dir, SdagMemo::Entry& e,
-                                       SdagMemo::Deep& d, uint32_t g, uint32_t index) noexcept {
-  const uint32_t slot = index >> e.slotShift,
-                 h = (e.hShift >> 2) + 1u;  // h >= 3: the root's children's height
-  uint32_t a = ((e.topValid >> slot) & 1u) ? e.top[slot] : sdagMemoTop<F>(data, dir, e, slot, index),
-           span = 256;
-  if (a >= 4) {
-    a = sdagStepDown<F>(data, dir, a, h, index);
-    span = 16;
-    if (a >= 4) {
-      a = sdagStepDown<F>(data, dir, a, h - 1u, index);
-      span = 1;
-    }
-  }
+                                       SdagMemo::Deep& d, uint32_t index) noexcept {
+  const uint32_t slot = index >> e.slotShift, shift = sdagDeepShift(e), g = index >> shift;
+  const uint32_t hc = shift >> 2;     // the table's records' height
+  uint32_t h = (e.hShift >> 2) + 1u;  // the root's children's height
+  uint32_t a = ((e.topValid >> slot) & 1u) ? e.top[slot] : sdagMemoTop<F>(data, dir, e, slot, index);
+  while (a >= 4 && h > hc) a = sdagStepDown<F>(data, dir, a, h--, index);
   if (d.gen == e.grandGen) {
-    const uint32_t first = g & ~(span - 1u);
+    const uint32_t span = 1u << (4u * (h - hc)), first = g & ~(span - 1u);
     for (uint32_t k = first; k < first + span; ++k) d.at[k] = a;
     if (span >= 64) {
       for (uint32_t w = first >> 6; w < (first + span) >> 6; ++w) d.valid[w] = ~uint64_t(0);
@@ -871,14 +874,15 @@ SOMM_ENCODE_INLINE State sdagMemoWalk(const uint8_t* data, const SdagDirectory& 
   if constexpr (kGrand) {
     if (e.kind == 3) {  // level >= 8: from the root's great-grandchild (a leaf at level 8)
       SdagMemo::Deep& d = sdagMemo().deep[e.grand];
-      const uint32_t g = index >> (hs - 4u);
+      const uint32_t shift = d.shift, g = index >> shift;
       const uint32_t a = d.gen == e.grandGen && ((d.valid[g >> 6] >> (g & 63u)) & 1u)
                              ? d.at[g]
-                             : sdagDeepMiss<F>(data, dir, e, d, g, index);
+                             : sdagDeepMiss<F>(data, dir, e, d, index);
       if (a < 4) return State(a);
-      if (h == 3) return sdagLeafState<F>(data + a, index & 15u);
-      if (h == 4) return sdagNodeStep<F, 2>(data, dir, data + a, index);
-      return sdagNodeWalk<F>(data, dir, data + a, h - 2u, index);
+      const uint32_t hc = sdagDeepShift(e) >> 2;
+      if (hc == 1) return sdagLeafState<F>(data + a, index & 15u);
+      if (hc == 2) return sdagNodeStep<F, 2>(data, dir, data + a, index);
+      return sdagNodeWalk<F>(data, dir, data + a, hc, index);
     }
     if (h >= 2) {
       SdagMemo::Grand& t = sdagMemo().grand[e.grand];
@@ -1154,11 +1158,14 @@ class EncodedArray {
           encode::SdagMemo& memo = encode::sdagMemo();
           const uint32_t now = ++memo.fills;
           if (e.level >= 8) {
-            const uint32_t slot = encode::sdagDeepSlot(e.root);
-            e.grandGen = encode::sdagTakeTable(memo.deep[slot], e, now, memo.gens);
+            const uint32_t slot = encode::sdagDeepPick(memo, e, now);
+            e.grandGen = slot < encode::SdagMemo::kDeep
+                             ? encode::sdagTakeTable(memo.deep[slot], e, now, memo.gens)
+                             : ~uint64_t(0);
             if (e.grandGen != ~uint64_t(0)) {
               e.kind = 3;
               e.grand = uint8_t(slot);
+              memo.deep[slot].shift = encode::sdagDeepShift(e);
             }
           }
           if (e.kind == 0) {

@@ -725,39 +725,38 @@ struct SdagMemo {
   // `valid` is set. A lookup whose entry's map holds the table reads at[g] and walks on from there: one dependent
   // record fewer than from the root's child (levels 7 and 8: the height-2 record, then the leaf). An entry
   // (re)filled for a map takes its map's table over unless another map's entries were filled within the last
-  // kGrandIdle fills (then it walks from the root's child); a takeover bumps `gen`, so the entries of the map that
-  // held it (entry.grandGen) stop reading it. Arrays with more maps keep no tables: on 0 A.D. flora-quarter
+  // kGrandIdle fills (then it walks from the root's child); a takeover gives the table a new `gen`, so the entries
+  // of the map that held it (entry.grandGen) stop reading it. Arrays with more maps keep no tables: on 0 A.D. flora-quarter
   // (2,256 maps at level 8) the tables' misses cost more than their hits saved (docs/encodings.md).
-  struct Grand {
+  // The owner and generation of a per-map table (Grand, Deep).
+  struct TableHead {
     uint64_t array = 0;  // 0: empty
     uint32_t root = 0;
     uint8_t level = 0, format = 0;
-    uint32_t stamp = 0;      // SdagMemo::fills when an entry of the owner was last filled
-    uint64_t gen = 0;        // a new SdagMemo::gens whenever a map takes the table over
+    uint32_t stamp = 0;  // SdagMemo::fills when an entry of the owner was last filled
+    uint64_t gen = 0;    // a new SdagMemo::gens whenever a map takes the table over
+  };
+  struct Grand : TableHead {
     uint64_t valid[4] = {};  // bit g: at[g] holds the grandchild
     uint32_t at[256] = {};
   };
-  // The root's great-grandchildren found so far per map (4 tables, direct mapped by the root's offset; maps of
-  // level >= 9 in arrays of at most kGrandArrayMaps DAG roots): at[g] = the record's byte offset or the uniform
-  // state (< 4) covering the index range whose top bits (10 for an odd level, 12 for an even one) are g. A lookup
-  // whose entry's map holds one reads at[g] and walks on from there (levels 9 and 10: the height-2 record, then
-  // the leaf — the walk of level 8 from its grandchild table); a map holding a deep table takes no grandchild
-  // table (its entries are of kind 3). Taken over like a grandchild table (kGrandIdle, gen).
-  struct Deep {
-    uint64_t array = 0;  // 0: empty
-    uint32_t root = 0;
-    uint8_t level = 0, format = 0;
-    uint32_t stamp = 0;        // SdagMemo::fills when an entry of the owner was last filled
-    uint64_t gen = 0;          // a new SdagMemo::gens whenever a map takes the table over
+  // The records below the root's grandchildren found so far per map (kDeep tables, each given to a map of level
+  // >= 8 in an array of at most kGrandArrayMaps DAG roots: the one its map holds, else the first empty or idle
+  // one): at[g] = the record's byte offset or the uniform state (< 4) covering the index range whose top bits
+  // (14 for an odd level, 12 for an even one) are g — a leaf at levels 8 and 9, a height-2 record at levels 10 and
+  // 11. A lookup whose entry's map holds one reads at[g] and walks on from there (levels 8 and 9: the leaf); a map
+  // holding a deep table takes no grandchild table (its entries are of kind 3). Taken over like a grandchild table
+  // (kGrandIdle, gen).
+  struct Deep : TableHead {
     uint32_t shift = 0;        // g = index >> shift
     uint64_t valid[256] = {};  // bit g: at[g] holds the great-grandchild
     uint32_t at[16384] = {};
   };
   static constexpr uint32_t kGrandBits = 6, kGrandIdle = 64, kDeep = 4;
   uint32_t fills = 0;  // entries (re)filled so far
-  uint64_t gens =
-      0;  // table generations handed out so far (unique across every table: an entry's gen matches
-          // only the table that issued it)
+  // Table generations handed out so far (unique across every table: an entry's gen matches only the table that
+  // issued it).
+  uint64_t gens = 0;
   Entry entry[256];
   MapTop map[256];
   Grand grand[1u << kGrandBits];

@@ -1101,6 +1101,31 @@ Micromap withOpaqueRun(const Micromap& base, uint32_t k) {
   for (uint32_t i = first; i < std::min(n, first + 1 + n / 64); ++i) m.set(i, State::Opaque);
   return m;
 }
+// Lookups in `runs` runs of `perRun` over up to `maxWidth` neighbouring triangles of array e (flat: oracle), a quarter
+// of the runs on a second array o (flat: other) instead, each of those lookups followed by onOther(triangle, run);
+// afterRun() after every run. Every answer as flat; stops at the first fatal failure.
+template <class OnOther, class AfterRun>
+void lookupRuns(std::mt19937& rng, Format f, const EncodedArray& e, const OmmArray& oracle,
+                const EncodedArray& o, const OmmArray& other, uint32_t runs, uint32_t perRun,
+                uint32_t maxWidth, OnOther onOther, AfterRun afterRun) {
+  const uint32_t n = e.triangleCount();
+  std::vector<uint32_t> last(n, 0);
+  for (uint32_t run = 0; run < runs; ++run) {
+    const uint32_t first = rng() % n, width = 1 + rng() % maxWidth;
+    const bool otherArray = rng() % 4 == 0;
+    for (uint32_t q = 0; q < perRun; ++q) {
+      const uint32_t t = (first + rng() % width) % n, i = nextLookupIndex(rng, oracle, t, last[t], 16);
+      if (otherArray) {
+        ASSERT_EQ(o.state(t, i), other.state(t, i)) << int(f) << " other " << t << " " << i;
+        onOther(t, run);
+        if (::testing::Test::HasFatalFailure()) return;
+      } else {
+        ASSERT_EQ(e.state(t, i), oracle.state(t, i)) << int(f) << " triangle " << t << " index " << i;
+      }
+    }
+    afterRun();
+  }
+}
 // The per-map grandchild tables of the sdag memo (arrays of at most 256 maps; 64 tables per thread): 180 distinct
 // maps of levels 5..10 (every height of the root's children), 400 triangles sharing them, lookups in runs over a few
 // triangles at a time (tables filled, kept, taken over by other maps after their owners idle, so that entries
@@ -1130,26 +1155,17 @@ TEST(EncodeDag, WalkMemoGrandTablesAnswerAsFlat) {
     ASSERT_TRUE(e.keepsGrandTables());
     ASSERT_TRUE(o.keepsGrandTables());
     ASSERT_FALSE(m.keepsGrandTables());
-    const uint32_t n = e.triangleCount();
-    std::vector<uint32_t> last(n, 0);
-    for (uint32_t run = 0; run < 3000; ++run) {
-      const uint32_t first = rng() % n, width = 1 + rng() % 6;
-      const bool otherArray = rng() % 4 == 0;
-      for (uint32_t q = 0; q < 60; ++q) {
-        const uint32_t t = (first + rng() % width) % n, i = nextLookupIndex(rng, oracle, t, last[t], 16);
-        if (otherArray) {
-          ASSERT_EQ(o.state(t, i), other.state(t, i)) << int(f) << " other " << t << " " << i;
+    lookupRuns(
+        rng, f, e, oracle, o, other, 3000, 60, 6,
+        [&](uint32_t t, uint32_t run) {
           const uint32_t mt = (t + run) % 300, mi = rng() % microTriangleCount(5 + mt % 3);
           ASSERT_EQ(m.state(mt, mi), manyOracle.state(mt, mi)) << int(f) << " many " << mt << " " << mi;
-        } else {
-          ASSERT_EQ(e.state(t, i), oracle.state(t, i)) << int(f) << " triangle " << t << " index " << i;
-        }
-      }
-    }
+        },
+        [] {});
   }
 }
 // The per-map deep tables of the sdag memo (maps of level >= 8 in arrays of at most 256 maps; 4 tables per thread,
-// at[g] = the root's great-grandchild: a leaf at level 8): 12 distinct maps of levels 8..12 over 40 triangles, so
+// at[g] = a record below the root's grandchildren: a leaf at levels 8 and 9): 12 distinct maps of levels 8..12 over 40 triangles, so
 // that maps compete for the 4 tables (taken, kept while their entries are refilled, taken over after their owners
 // idle; a map left without one walks from its grandchild table or its root's child), lookups in runs over a few
 // triangles, interleaved with a second array of the same shapes but other states (its roots land in the same
@@ -1170,22 +1186,12 @@ TEST(EncodeDag, WalkMemoDeepTablesAnswerAsFlat) {
     const EncodedArray e = EncodedArray::build(oracle, Encoding::Sdag).value();
     const EncodedArray o = EncodedArray::build(other, Encoding::Sdag).value();
     ASSERT_TRUE(e.keepsGrandTables());
-    const uint32_t n = e.triangleCount();
-    std::vector<uint32_t> last(n, 0);
-    uint32_t held = 0;  // lookups made while one of e's maps held a deep table
-    for (uint32_t run = 0; run < 2000; ++run) {
-      const uint32_t first = rng() % n, width = 1 + rng() % 4;
-      const bool otherArray = rng() % 4 == 0;
-      for (uint32_t q = 0; q < 80; ++q) {
-        const uint32_t t = (first + rng() % width) % n, i = nextLookupIndex(rng, oracle, t, last[t], 16);
-        if (otherArray) {
-          ASSERT_EQ(o.state(t, i), other.state(t, i)) << int(f) << " other " << t << " " << i;
-        } else {
-          ASSERT_EQ(e.state(t, i), oracle.state(t, i)) << int(f) << " triangle " << t << " index " << i;
-        }
-      }
-      for (const encode::SdagMemo::Deep& d : encode::sdagMemo().deep) held += d.array == e.identity();
-    }
+    uint32_t held = 0;  // runs ended while a deep table was e's (counted per table)
+    lookupRuns(
+        rng, f, e, oracle, o, other, 2000, 80, 4, [](uint32_t, uint32_t) {},
+        [&] {
+          for (const encode::SdagMemo::Deep& d : encode::sdagMemo().deep) held += d.array == e.identity();
+        });
     EXPECT_GT(held, 1000u);
   }
 }

@@ -155,15 +155,12 @@ inline constexpr auto kBytePopcount = [] {
 #if defined(__GNUC__) || defined(__clang__)
 #define SOMM_ENCODE_INLINE __attribute__((always_inline)) inline
 #define SOMM_ENCODE_COLD __attribute__((noinline, cold))
-#define SOMM_ENCODE_NOINLINE __attribute__((noinline))
 #elif defined(_MSC_VER)
 #define SOMM_ENCODE_INLINE __forceinline
 #define SOMM_ENCODE_COLD __declspec(noinline)
-#define SOMM_ENCODE_NOINLINE __declspec(noinline)
 #else
 #define SOMM_ENCODE_INLINE inline
 #define SOMM_ENCODE_COLD
-#define SOMM_ENCODE_NOINLINE
 #endif
 
 // Population count of a 16-bit value (DAG masks and flags): the instruction when the build targets it, else two
@@ -699,7 +696,7 @@ struct SdagMemo {
     uint32_t root = 0;  // the map's descriptor offset, or (kind 2) the special index's state
     uint8_t level = 0, format = 0,
             kind = 0;                   // kind: 0 a DAG map, 1 a flat map, 2 a special index, 3 a DAG map
-                                        // of level >= 9 with a deep table
+                                        // of level >= 8 with a deep table
     uint8_t grand = 0;                  // the map's table is SdagMemo::grand[grand] (deep[grand]: kind 3) ...
     uint16_t topValid = 0;              // bit s: top[s] holds the root's child in slot s
     uint8_t slotShift = 0, hShift = 0;  // level >= 4: index >> slotShift = the root's slot; the root's
@@ -726,8 +723,8 @@ struct SdagMemo {
   // record fewer than from the root's child (levels 7 and 8: the height-2 record, then the leaf). An entry
   // (re)filled for a map takes its map's table over unless another map's entries were filled within the last
   // kGrandIdle fills (then it walks from the root's child); a takeover gives the table a new `gen`, so the entries
-  // of the map that held it (entry.grandGen) stop reading it. Arrays with more maps keep no tables: on 0 A.D. flora-quarter
-  // (2,256 maps at level 8) the tables' misses cost more than their hits saved (docs/encodings.md).
+  // of the map that held it (entry.grandGen) stop reading it. Arrays with more maps keep no tables: on 0 A.D.
+  // flora-quarter (2,256 maps at level 8) the tables' misses cost more than their hits saved (docs/encodings.md).
   // The owner and generation of a per-map table (Grand, Deep).
   struct TableHead {
     uint64_t array = 0;  // 0: empty
@@ -827,14 +824,14 @@ SOMM_ENCODE_COLD uint32_t sdagMemoTop(const uint8_t* data, const SdagDirectory& 
   }
   return at;
 }
-// The root's great-grandchild covering `index` of a memo entry's map of level >= 8 (its byte offset — a leaf's at
-// level 8 — or a uniform state < 4), found from the root's child and kept in the entry's deep table d at g while
-// the entry's map holds it: out of line (each slot of a table is filled once). A uniform root's child or
-// grandchild fills every slot it covers (256 or 16).
 // The index bits below a deep table's records of entry e's map: 4 (leaves) at levels 8 and 9.
 inline uint32_t sdagDeepShift(const SdagMemo::Entry& e) noexcept {
   return (e.level & 1u) ? e.hShift - 8u : e.hShift - 4u;
 }
+// The deep table's record covering `index` of a memo entry's map of level >= 8 (its byte offset — a leaf's at levels
+// 8 and 9 — or a uniform state < 4), found from the root's child and kept in the entry's deep table d while the
+// entry's map holds it: out of line (each slot of a table is filled once). A uniform record on the way fills every
+// slot it covers (16, 256 or 4096).
 template <Format F>
 SOMM_ENCODE_COLD uint32_t sdagDeepMiss(const uint8_t* data, const SdagDirectory& dir, SdagMemo::Entry& e,
                                        SdagMemo::Deep& d, uint32_t index) noexcept {
@@ -860,10 +857,11 @@ SOMM_ENCODE_COLD State sdagSmallState(const uint8_t* data, const SdagDirectory& 
                                       uint32_t level, uint32_t index) noexcept {
   return sdagStateAs<F>(data, dir, root, level, index);
 }
-// The state at `index` of a memo entry's DAG map (kind 0): the walk from the root's child covering `index`, taken
-// from the entry (or found and kept there), for maps of level >= 4; from the root below that. kGrand (arrays of at
-// most kGrandArrayMaps DAG roots, see SdagMemo::Grand): maps of level >= 5 start from the root's grandchild, kept in the
-// map's table while the entry's map holds one.
+// The state at `index` of a memo entry's DAG map (kind 0 or 3): the walk from the root's child covering `index`,
+// taken from the entry (or found and kept there), for maps of level >= 4; from the root below that. kGrand (arrays
+// of at most kGrandArrayMaps DAG roots, see SdagMemo::Grand): maps of level >= 5 start from the root's grandchild,
+// kept in the map's table while the entry's map holds one; entries of kind 3 (level >= 8) from their deep table's
+// record (SdagMemo::Deep).
 template <Format F, bool kGrand>
 SOMM_ENCODE_INLINE State sdagMemoWalk(const uint8_t* data, const SdagDirectory& dir, SdagMemo::Entry& e,
                                       uint32_t index) noexcept {
@@ -871,7 +869,7 @@ SOMM_ENCODE_INLINE State sdagMemoWalk(const uint8_t* data, const SdagDirectory& 
   if (level < 4) return sdagSmallState<F>(data, dir, e.root, level, index);
   const uint32_t slot = index >> e.slotShift, hs = e.hShift, h = (hs >> 2) + 1u;  // h: the child's height
   if constexpr (kGrand) {
-    if (e.kind == 3) {  // level >= 8: from the root's great-grandchild (a leaf at level 8)
+    if (e.kind == 3) {  // level >= 8: from the deep table's record (a leaf at levels 8 and 9)
       SdagMemo::Deep& d = sdagMemo().deep[e.grand];
       const uint32_t shift = d.shift, g = index >> shift;
       const uint32_t a = d.gen == e.grandGen && ((d.valid[g >> 6] >> (g & 63u)) & 1u)
@@ -1152,7 +1150,7 @@ class EncodedArray {
           t.valid = 0;
         }
         if (grand_ && e.level >= 5) {
-          // The map's deep table (level >= 9), else its grandchild table: its own, or taken over from a map idle
+          // The map's deep table (level >= 8), else its grandchild table: its own, or taken over from a map idle
           // for kGrandIdle fills, or none.
           encode::SdagMemo& memo = encode::sdagMemo();
           const uint32_t now = ++memo.fills;

@@ -1165,11 +1165,11 @@ TEST(EncodeDag, WalkMemoGrandTablesAnswerAsFlat) {
   }
 }
 // The per-map deep tables of the sdag memo (maps of level >= 8 in arrays of at most 256 maps; 4 tables per thread,
-// at[g] = a record below the root's grandchildren: a leaf at levels 8 and 9): 12 distinct maps of levels 8..12 over 40 triangles, so
-// that maps compete for the 4 tables (taken, kept while their entries are refilled, taken over after their owners
-// idle; a map left without one walks from its grandchild table or its root's child), lookups in runs over a few
-// triangles, interleaved with a second array of the same shapes but other states (its roots land in the same
-// tables). Every answer as flat, and the tables are used.
+// at[g] = a record below the root's grandchildren: a leaf at levels 8 and 9): 12 distinct maps of levels 8..12
+// over 40 triangles, so that maps compete for the 4 tables (taken, kept while their entries are refilled, taken
+// over after their owners idle; a map left without one walks from its grandchild table or its root's child),
+// lookups in runs over a few triangles, interleaved with a second array of the same shapes but other states (its
+// roots land in the same tables). Every answer as flat, and the tables are used.
 TEST(EncodeDag, WalkMemoDeepTablesAnswerAsFlat) {
   for (Format f : {Format::TwoState, Format::FourState}) {
     std::mt19937 rng(f == Format::TwoState ? 41u : 42u);

@@ -745,7 +745,6 @@ struct SdagMemo {
   // holding a deep table takes no grandchild table (its entries are of kind 3). Taken over like a grandchild table
   // (kGrandIdle, gen).
   struct Deep : TableHead {
-    uint32_t shift = 0;        // g = index >> shift
     uint64_t valid[256] = {};  // bit g: at[g] holds the great-grandchild
     uint32_t at[16384] = {};
   };
@@ -781,8 +780,11 @@ inline bool sdagTableHolds(const Table& t, const SdagMemo::Entry& e) noexcept {
 inline uint32_t sdagGrandSlot(uint32_t root) noexcept {
   return (root * 0x9e3779b1u) >> (32u - SdagMemo::kGrandBits);
 }
-// The deep table for entry e's map: the one it holds, else the first empty or idle one (kGrandIdle), else kDeep.
-inline uint32_t sdagDeepPick(const SdagMemo& memo, const SdagMemo::Entry& e, uint32_t now) noexcept;
+// Whether table t (Grand or Deep) may be taken over at fill count `now`: empty, or its owner idle for more than
+// kGrandIdle fills.
+inline bool sdagTableFree(const SdagMemo::TableHead& t, uint32_t now) noexcept {
+  return t.array == 0 || now - t.stamp > SdagMemo::kGrandIdle;
+}
 // Whether table t (Grand or Deep) can be entry e's map's: held by it (stamped now), else taken over when empty or
 // idle for more than kGrandIdle fills (a new generation, the valid bits cleared). e's gen for t, or ~0 (no table).
 template <class Table>
@@ -791,7 +793,7 @@ inline uint64_t sdagTakeTable(Table& t, const SdagMemo::Entry& e, uint32_t now, 
     t.stamp = now;
     return t.gen;
   }
-  if (t.array != 0 && now - t.stamp <= SdagMemo::kGrandIdle) return ~uint64_t(0);
+  if (!sdagTableFree(t, now)) return ~uint64_t(0);
   t.stamp = now;
   t.array = e.array;
   t.root = e.root;
@@ -800,11 +802,12 @@ inline uint64_t sdagTakeTable(Table& t, const SdagMemo::Entry& e, uint32_t now, 
   std::memset(t.valid, 0, sizeof t.valid);
   return t.gen = ++gens;
 }
+// The deep table for entry e's map: the one it holds, else the first free one (sdagTableFree), else kDeep.
 inline uint32_t sdagDeepPick(const SdagMemo& memo, const SdagMemo::Entry& e, uint32_t now) noexcept {
   for (uint32_t k = 0; k < SdagMemo::kDeep; ++k)
     if (sdagTableHolds(memo.deep[k], e)) return k;
   for (uint32_t k = 0; k < SdagMemo::kDeep; ++k)
-    if (memo.deep[k].array == 0 || now - memo.deep[k].stamp > SdagMemo::kGrandIdle) return k;
+    if (sdagTableFree(memo.deep[k], now)) return k;
   return SdagMemo::kDeep;
 }
 // The root's child covering `index` (see sdagMemoWalk), found and kept in the entry: out of line, so that the walk's
@@ -871,12 +874,11 @@ SOMM_ENCODE_INLINE State sdagMemoWalk(const uint8_t* data, const SdagDirectory& 
   if constexpr (kGrand) {
     if (e.kind == 3) {  // level >= 8: from the deep table's record (a leaf at levels 8 and 9)
       SdagMemo::Deep& d = sdagMemo().deep[e.grand];
-      const uint32_t shift = d.shift, g = index >> shift;
+      const uint32_t shift = sdagDeepShift(e), g = index >> shift, hc = shift >> 2;
       const uint32_t a = d.gen == e.grandGen && ((d.valid[g >> 6] >> (g & 63u)) & 1u)
                              ? d.at[g]
                              : sdagDeepMiss<F>(data, dir, e, d, index);
       if (a < 4) return State(a);
-      const uint32_t hc = sdagDeepShift(e) >> 2;
       if (hc == 1) return sdagLeafState<F>(data + a, index & 15u);
       if (hc == 2) return sdagNodeStep<F, 2>(data, dir, data + a, index);
       return sdagNodeWalk<F>(data, dir, data + a, hc, index);
@@ -1162,7 +1164,6 @@ class EncodedArray {
             if (e.grandGen != ~uint64_t(0)) {
               e.kind = 3;
               e.grand = uint8_t(slot);
-              memo.deep[slot].shift = encode::sdagDeepShift(e);
             }
           }
           if (e.kind == 0) {

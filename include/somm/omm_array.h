@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "somm/micromap.h"
@@ -77,12 +78,25 @@ class OmmArrayBuilder {
   // Stores a map (deduplicated; uniform maps are not stored) without appending a triangle; returns the index value
   // add() would have stored for it.
   int32_t intern(const Micromap& map);
+  // What intern() computes from a map before it looks at the array: its uniform state (if any) and its hash. A pure
+  // function of the map, so a caller may compute it on another thread and pass it to intern(map, key).
+  struct MapKey {
+    std::optional<State> uniform;
+    uint64_t hash = 0;
+  };
+  static MapKey keyOf(const Micromap& map);
+  // intern(map) with key == keyOf(map) (checked in debug builds).
+  int32_t intern(const Micromap& map, const MapKey& key);
+  // A hint: the data will probably hold at most `bytes`. Up to that size the maps go to one buffer reserved now
+  // (address space: pages are touched only as maps are stored), which finish() hands over without a copy; beyond
+  // it they go to chunks as without the hint. Only before the first map is stored.
+  void reserveData(size_t bytes);
   // Appends a triangle with an index value an earlier add() / intern() returned (a descriptor of this array or a special
   // index).
   void addIndex(int32_t index) { array_.indices.push_back(index); }
 
   uint32_t triangleCount() const noexcept { return uint32_t(array_.indices.size()); }
-  // The descriptors and indices so far; its `data` is filled by finish() (the maps are kept in chunks until then).
+  // The descriptors and indices so far; its `data` is filled by finish() (the maps are kept elsewhere until then).
   const OmmArray& array() const noexcept { return array_; }
   // Bytes of micromap data stored so far.
   size_t dataBytes() const noexcept { return dataSize_; }
@@ -95,7 +109,8 @@ class OmmArrayBuilder {
   };
   static constexpr size_t kChunkBytes = size_t(16) << 20;
   OmmArray array_;
-  std::vector<std::vector<uint8_t>> chunks_;  // the data: fixed-size chunks, concatenated by finish()
+  std::vector<uint8_t> head_;  // the data's first head_.size() bytes (up to the reserveData() hint) ...
+  std::vector<std::vector<uint8_t>> chunks_;  // ... then fixed-size chunks, concatenated by finish()
   size_t dataSize_ = 0;
   void store(const uint8_t* p, size_t n);
   bool storedEquals(size_t offset, const uint8_t* p, size_t n) const;

@@ -847,6 +847,8 @@ bool finite2(const std::array<float, 2>& p) {
 struct Baked {
   std::optional<State> uniform;
   Micromap map;
+  OmmArrayBuilder::MapKey
+      key;  // of `map` when not uniform (the scene bake computes it with the map, in parallel)
   uint64_t unknown = 0;
   uint64_t work = 0;  // TriangleClassifier::work
   bool nonFinite = false;
@@ -1177,28 +1179,39 @@ class JobTable {
   uint32_t insert(const Job& j, uint64_t h, std::vector<Job>& jobs) {
     if ((jobs.size() + 1) * 2 > slots_.size()) grow();
     const size_t m = slots_.size() - 1;
+    const uint64_t tag = h & kTagMask;
     for (size_t i = h & m;; i = (i + 1) & m) {
-      if (slots_[i] == 0) {
+      const uint64_t e = slots_[i];
+      if (e == 0) {
         jobs.push_back(j);
         hashes_.push_back(h);
-        slots_[i] = uint32_t(jobs.size());
+        slots_[i] = tag | jobs.size();
         return uint32_t(jobs.size() - 1);
       }
-      const uint32_t id = slots_[i] - 1;
-      if (hashes_[id] == h && sameJob(jobs[id], j)) return id;
+      const uint32_t id = uint32_t(e) - 1;
+      if ((e & kTagMask) == tag && sameJob(jobs[id], j)) return id;
     }
+  }
+  // Room for n jobs in the vectors it appends to (no copies as they grow; the slots grow with the jobs, so that
+  // a table of a scene with many repeated triangles stays small enough to be cached).
+  void reserve(size_t n, std::vector<Job>& jobs) {
+    jobs.reserve(n);
+    hashes_.reserve(n);
   }
 
  private:
-  std::vector<uint32_t> slots_ = std::vector<uint32_t>(1024, 0);
+  // A slot: 0 (empty), else the job's id + 1 in the low 32 bits and the hash's high 32 bits (compared before the
+  // job itself: a probe reads the job only when they match).
+  static constexpr uint64_t kTagMask = ~uint64_t(0) << 32;
+  std::vector<uint64_t> slots_ = std::vector<uint64_t>(1024, 0);
   std::vector<uint64_t> hashes_;  // by job id
   void grow() {
-    std::vector<uint32_t> next(slots_.size() * 2, 0);
+    std::vector<uint64_t> next(slots_.size() * 2, 0);
     const size_t m = next.size() - 1;
     for (uint32_t id = 0; id < hashes_.size(); ++id)
       for (size_t i = hashes_[id] & m;; i = (i + 1) & m)
         if (next[i] == 0) {
-          next[i] = id + 1;
+          next[i] = (hashes_[id] & kTagMask) | (uint64_t(id) + 1);
           break;
         }
     slots_ = std::move(next);
@@ -1297,6 +1310,7 @@ Status bakePass(const CoreInputs& ci, const std::vector<std::vector<uint8_t>>& l
   for (uint32_t g = 0; g < in.geometryCount; ++g) triangles += in.geometries[g].triangleCount;
   std::vector<uint32_t> refs;
   refs.reserve(size_t(triangles));
+  table.reserve(size_t(triangles), jobs);
   // A triangle listing a job's corners in another order refers to the job and that order (refOrder: an index into
   // kVertexOrders per triangle, allocated at the first such triangle); jobTwins: per job, bit o = some triangle
   // needs its map in order o.
@@ -1317,7 +1331,9 @@ Status bakePass(const CoreInputs& ci, const std::vector<std::vector<uint8_t>>& l
     uint64_t hash;
     uint32_t special;  // a special outcome's reference (kSpecialBit set), or 0: the job
   };
-  struct PrepBlock {
+  // Blocks (and batches below) on cache lines of their own: two threads filling neighbouring ones would otherwise
+  // keep taking the line of their vector headers from each other.
+  struct alignas(128) PrepBlock {
     uint32_t g = 0, t = 0, count = 0;  // the block's first triangle (geometry, triangle) and its size
     std::vector<Candidate> c;
   };
@@ -1424,8 +1440,9 @@ Status bakePass(const CoreInputs& ci, const std::vector<std::vector<uint8_t>>& l
   // job · 8 + order → the index of the job's map in that order and its unknown micro-triangles (the same as the
   // job's unless the work bound was reached)
   std::unordered_map<uint64_t, std::pair<int32_t, uint64_t>> twinIndex;
-  std::unordered_map<uint64_t, Micromap> pending;  // maps of twinIndex not yet in the array
-  size_t nextTwin = 0;                             // twinsAfter[nextTwin] is the next to add
+  // maps of twinIndex not yet in the array, with their keys
+  std::unordered_map<uint64_t, std::pair<Micromap, OmmArrayBuilder::MapKey>> pending;
+  size_t nextTwin = 0;  // twinsAfter[nextTwin] is the next to add
   std::vector<uint32_t> jobUnknown(jobs.size(), 0);
   out.geometries.assign(in.geometryCount, GeometryBake{});
   out.classifiedTriangles = jobs.size();
@@ -1483,14 +1500,22 @@ Status bakePass(const CoreInputs& ci, const std::vector<std::vector<uint8_t>>& l
   // while that fits, fewer (at least 2 per thread + 2) when single maps are large (level 12: 4 MiB each).
   const uint32_t nj = uint32_t(jobs.size());
   constexpr uint64_t kRingBytes = uint64_t(4) << 20;
-  uint64_t largestMap = 1;
-  for (const Job& j : jobs) largestMap = std::max<uint64_t>(largestMap, micromapDataBytes(j.level, o.format));
+  uint64_t largestMap = 1, dataBound = 0;
+  for (uint32_t i = 0; i < nj; ++i) {
+    const uint64_t bytes = micromapDataBytes(jobs[i].level, o.format);
+    largestMap = std::max(largestMap, bytes);
+    dataBound += bytes * (1u + uint32_t(std::popcount(jobTwins[i])));
+  }
+  // The array's data is at most every job's map in every order it is needed in: reserved up front (address space;
+  // pages are touched as maps are stored), the builder hands it over without concatenating chunks at the end.
+  constexpr uint64_t kReserveCap = uint64_t(2) << 30;
+  builder.reserveData(size_t(std::min(dataBound, kReserveCap)));
   const size_t tokens = size_t(std::max<uint64_t>(
       2 * uint64_t(arena.max_concurrency()) + 2,
       std::min<uint64_t>(32 * uint64_t(arena.max_concurrency()), kRingBytes / largestMap)));
   const uint64_t batchBytes = std::max<uint64_t>(kRingBytes / tokens, 1);
   constexpr uint32_t kBatchJobs = 16;
-  struct Batch {
+  struct alignas(128) Batch {  // (aligned: see PrepBlock; flora-quarter level 6, two threads: 6 % less CPU)
     uint32_t j0 = 0, j1 = 0;
     std::vector<Baked> slots;                 // maps are kept for reuse by a later batch
     std::vector<std::array<Baked, 6>> twins;  // per slot, the job's outcome in the orders it is needed in
@@ -1532,6 +1557,7 @@ Status bakePass(const CoreInputs& ci, const std::vector<std::vector<uint8_t>>& l
             Baked& base = b->slots[i - b->j0];
             classify(*masks[j.mask], p, j.level, o.format, o.unknownAs, base,
                      jobTwins[i] ? &b->ties : nullptr);
+            if (!base.uniform) base.key = OmmArrayBuilder::keyOf(base.map);
             for (uint32_t t = jobTwins[i]; t; t &= t - 1) {
               const uint32_t order = uint32_t(std::countr_zero(t));
               const VertexOrder& vo = kVertexOrders[order];
@@ -1545,6 +1571,7 @@ Status bakePass(const CoreInputs& ci, const std::vector<std::vector<uint8_t>>& l
                 for (int k = 0; k < 3; ++k) q.X[k] = p.X[vo[k]], q.Y[k] = p.Y[vo[k]];
                 classify(*masks[j.mask], q, j.level, o.format, o.unknownAs, tw);
               }
+              if (!tw.uniform) tw.key = OmmArrayBuilder::keyOf(tw.map);
             }
           }
           return b;
@@ -1552,7 +1579,7 @@ Status bakePass(const CoreInputs& ci, const std::vector<std::vector<uint8_t>>& l
           for (uint32_t i = b->j0; i < b->j1; ++i) {
             const Baked& r = b->slots[i - b->j0];
             jobUnknown[i] = uint32_t(r.unknown);
-            jobIndex[i] = r.uniform ? specialIndexFor(*r.uniform) : builder.intern(r.map);
+            jobIndex[i] = r.uniform ? specialIndexFor(*r.uniform) : builder.intern(r.map, r.key);
             // The job's maps in other orders wait (pending) for their place in the array.
             for (uint32_t t = jobTwins[i]; t; t &= t - 1) {
               const uint32_t order = uint32_t(std::countr_zero(t));
@@ -1562,14 +1589,14 @@ Status bakePass(const CoreInputs& ci, const std::vector<std::vector<uint8_t>>& l
                 twinIndex[key] = {specialIndexFor(*tw.uniform), tw.unknown};
               } else {
                 twinIndex[key] = {-1, tw.unknown};
-                pending.emplace(key, std::move(tw.map));
+                pending.emplace(key, std::make_pair(std::move(tw.map), tw.key));
                 tw.map = Micromap();  // not left moved-from: the slot's next job sizes it again
               }
             }
             for (; nextTwin < twinsAfter.size() && twinsAfter[nextTwin].first == i; ++nextTwin) {
               const auto it = pending.find(twinsAfter[nextTwin].second);
               if (it == pending.end()) continue;  // a uniform map: a special index, no place in the array
-              twinIndex[it->first].first = builder.intern(it->second);
+              twinIndex[it->first].first = builder.intern(it->second.first, it->second.second);
               pending.erase(it);
             }
           }

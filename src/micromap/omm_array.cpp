@@ -2,7 +2,13 @@
 #include "somm/omm_array.h"
 
 #include <algorithm>
+#include <cassert>
 #include <cstring>
+#include <exception>
+
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
 
 namespace somm {
 
@@ -14,18 +20,29 @@ uint64_t mix(uint64_t h, uint64_t x) {
   return h ^ (h >> 33);
 }
 
+// Four independent lanes over 32-byte blocks (a level-9 map is 64 KiB: one chain of multiplies would be the
+// builder's main cost), then the rest word by word into the first lane, then the lanes and the tail combined.
 uint64_t hashMap(const Micromap& m) {
-  uint64_t h = mix(uint64_t(m.level()) << 8 | uint64_t(m.format()), 0x51u);
+  const uint64_t seed = mix(uint64_t(m.level()) << 8 | uint64_t(m.format()), 0x51u);
+  uint64_t lane[4] = {seed, seed ^ 1u, seed ^ 2u, seed ^ 3u};
   const auto bytes = m.bytes();
+  const uint8_t* p = bytes.data();
+  const size_t n = bytes.size();
   size_t i = 0;
-  for (; i + 8 <= bytes.size(); i += 8) {
+  for (; i + 32 <= n; i += 32)
+    for (int k = 0; k < 4; ++k) {
+      uint64_t w;
+      std::memcpy(&w, p + i + 8 * k, 8);
+      lane[k] = mix(lane[k], w);
+    }
+  for (; i + 8 <= n; i += 8) {
     uint64_t w;
-    std::memcpy(&w, bytes.data() + i, 8);
-    h = mix(h, w);
+    std::memcpy(&w, p + i, 8);
+    lane[0] = mix(lane[0], w);
   }
   uint64_t tail = 0;
-  for (size_t k = 0; i < bytes.size(); ++i, ++k) tail |= uint64_t(bytes[i]) << (8 * k);
-  return mix(h, tail);
+  for (size_t k = 0; i < n; ++i, ++k) tail |= uint64_t(p[i]) << (8 * k);
+  return mix(mix(mix(mix(lane[0], lane[1]), lane[2]), lane[3]), tail);
 }
 
 void putU32(std::vector<uint8_t>& out, uint32_t v) {
@@ -99,9 +116,21 @@ int32_t OmmArrayBuilder::add(const Micromap& map) {
   return id;
 }
 
+OmmArrayBuilder::MapKey OmmArrayBuilder::keyOf(const Micromap& map) {
+  MapKey k;
+  k.uniform = map.uniformState();
+  if (!k.uniform) k.hash = hashMap(map);
+  return k;
+}
+
 int32_t OmmArrayBuilder::intern(const Micromap& map) {
-  if (auto u = map.uniformState()) return specialIndexFor(*u);
-  const uint64_t h = hashMap(map);
+  return intern(map, keyOf(map));
+}
+
+int32_t OmmArrayBuilder::intern(const Micromap& map, const MapKey& key) {
+  assert(key.uniform == map.uniformState() && (key.uniform || key.hash == hashMap(map)));
+  if (key.uniform) return specialIndexFor(*key.uniform);
+  const uint64_t h = key.hash;
   auto& bucket = buckets_[h & (buckets_.size() - 1)];
   const auto bytes = map.bytes();
   for (const Slot& s : bucket) {
@@ -118,6 +147,23 @@ int32_t OmmArrayBuilder::intern(const Micromap& map) {
   bucket.push_back(Slot{h, id});
   if (++uniqueCount_ > buckets_.size() * 2) grow();
   return id;
+}
+
+void OmmArrayBuilder::reserveData(size_t bytes) {
+  if (dataSize_ != 0 || !chunks_.empty() || bytes <= head_.capacity()) return;
+  try {
+    head_.reserve(bytes);
+  } catch (const std::exception&) {  // too large to reserve: the chunks take the maps, as without the hint
+    return;
+  }
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+  // Large heads fault in 2 MiB pages where the kernel allows it (transparent huge pages in "madvise" mode): storing
+  // a level-9 scene's maps otherwise spends most of its time in 4 KiB page faults.
+  constexpr size_t kPage = size_t(2) << 20;
+  const size_t lead = (kPage - (reinterpret_cast<uintptr_t>(head_.data()) & (kPage - 1))) & (kPage - 1);
+  if (head_.capacity() > lead + kPage)
+    madvise(head_.data() + lead, (head_.capacity() - lead) & ~(kPage - 1), MADV_HUGEPAGE);
+#endif
 }
 
 UsageHistograms countUsage(Span<const TriangleDescriptor> descriptors, Span<const int32_t> indices) {
@@ -150,6 +196,10 @@ void computeUsageHistograms(OmmArray& a) {
 
 void OmmArrayBuilder::store(const uint8_t* p, size_t n) {
   dataSize_ += n;
+  if (chunks_.empty() && n <= head_.capacity() - head_.size()) {
+    head_.insert(head_.end(), p, p + n);
+    return;
+  }
   while (n) {
     if (chunks_.empty() || chunks_.back().size() == kChunkBytes) {
       chunks_.emplace_back();
@@ -165,6 +215,14 @@ void OmmArrayBuilder::store(const uint8_t* p, size_t n) {
 }
 
 bool OmmArrayBuilder::storedEquals(size_t offset, const uint8_t* p, size_t n) const {
+  if (offset < head_.size()) {
+    const size_t k = std::min(n, head_.size() - offset);
+    if (std::memcmp(head_.data() + offset, p, k) != 0) return false;
+    offset += k;
+    p += k;
+    n -= k;
+  }
+  offset -= head_.size();
   while (n) {
     const std::vector<uint8_t>& c = chunks_[offset / kChunkBytes];
     const size_t at = offset % kChunkBytes, k = std::min(n, c.size() - at);
@@ -177,13 +235,21 @@ bool OmmArrayBuilder::storedEquals(size_t offset, const uint8_t* p, size_t n) co
 }
 
 OmmArray OmmArrayBuilder::finish() {
-  // One contiguous copy of the chunks, each freed once copied: the data is held about once (+ one chunk), never
-  // twice as a growing vector's reallocation would.
-  array_.data.reserve(dataSize_);
-  for (std::vector<uint8_t>& c : chunks_) {
-    array_.data.insert(array_.data.end(), c.begin(), c.end());
-    std::vector<uint8_t>().swap(c);
+  if (chunks_.empty()) {
+    // Everything fitted the reserved head (or there is no data): handed over as it is.
+    array_.data = std::move(head_);
+  } else {
+    // One contiguous copy of the head and the chunks, each chunk freed once copied: the data is held about once (+
+    // one chunk), never twice as a growing vector's reallocation would.
+    array_.data.reserve(dataSize_);
+    array_.data.insert(array_.data.end(), head_.begin(), head_.end());
+    std::vector<uint8_t>().swap(head_);
+    for (std::vector<uint8_t>& c : chunks_) {
+      array_.data.insert(array_.data.end(), c.begin(), c.end());
+      std::vector<uint8_t>().swap(c);
+    }
   }
+  head_ = {};
   chunks_.clear();
   dataSize_ = 0;
   computeUsageHistograms(array_);

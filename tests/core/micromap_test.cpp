@@ -116,6 +116,54 @@ TEST(OmmArray, BuilderDedupAcrossDataChunks) {
   EXPECT_EQ(arr.indices.size(), 21u);
 }
 
+// reserveData() puts the maps into one reserved buffer that finish() hands over (no copy), and maps past the hint
+// into chunks; intern(map, keyOf(map)) is intern(map). Whatever the hint, the array is the same: the same indices,
+// descriptors and bytes as a builder without one, and equal maps are found in the head, in the chunks and across.
+TEST(OmmArray, BuilderReservedHeadEqualsChunks) {
+  std::vector<Micromap> maps;
+  uint64_t seed = 12345;
+  auto next = [&seed] {
+    seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+    return uint32_t(seed >> 33);
+  };
+  for (uint32_t k = 0; k < 60; ++k) {
+    Micromap m(3 + k % 4, k % 3 ? Format::FourState : Format::TwoState);
+    if (k % 7 == 3) {
+      maps.push_back(Micromap(m.level(), m.format(), State::Opaque));  // uniform: a special index
+      continue;
+    }
+    for (uint32_t i = 0; i < m.size(); ++i)
+      m.set(i, State(next() % (m.format() == Format::FourState ? 4 : 2)));
+    maps.push_back(std::move(m));
+  }
+  for (uint32_t k = 0; k < 40; ++k) maps.push_back(maps[next() % 60]);  // repeats, stored once
+  OmmArrayBuilder plain;
+  for (const Micromap& m : maps) plain.add(m);
+  const size_t total = plain.dataBytes();
+  const OmmArray expect = plain.finish();
+  ASSERT_GT(total, 0u);
+  for (const size_t hint : {size_t(0), size_t(1), total / 2, total, 4 * total}) {
+    OmmArrayBuilder b;
+    b.reserveData(hint);
+    for (const Micromap& m : maps) {
+      const OmmArrayBuilder::MapKey key = OmmArrayBuilder::keyOf(m);
+      EXPECT_EQ(key.uniform, m.uniformState());
+      const int32_t id = b.intern(m, key);
+      EXPECT_EQ(b.intern(m), id);  // unkeyed: the same index, nothing stored twice
+      b.addIndex(id);
+    }
+    EXPECT_EQ(b.dataBytes(), total) << "hint " << hint;
+    const OmmArray arr = b.finish();
+    EXPECT_EQ(arr.indices, expect.indices) << "hint " << hint;
+    EXPECT_EQ(arr.descriptors, expect.descriptors) << "hint " << hint;
+    EXPECT_TRUE(arr.data == expect.data) << "hint " << hint;
+    EXPECT_EQ(arr.histogram, expect.histogram);
+    // The builder is empty again: a second array starts from offset 0.
+    EXPECT_EQ(b.add(maps[0]), 0);
+    EXPECT_TRUE(b.finish().data == std::vector<uint8_t>(maps[0].bytes().begin(), maps[0].bytes().end()));
+  }
+}
+
 TEST(OmmArray, DedupSpecialIndicesAndBytes) {
   OmmArrayBuilder b;
   Micromap a(1, Format::FourState);

@@ -1192,6 +1192,9 @@ class JobTable {
       if ((e & kTagMask) == tag && sameJob(jobs[id], j)) return id;
     }
   }
+  // Starts loading the slot a job of hash h is probed at first (the serial stage prefetches a few triangles ahead:
+  // the table does not stay in the cache of the thread that runs that stage).
+  void prefetch(uint64_t h) const noexcept { __builtin_prefetch(&slots_[h & (slots_.size() - 1)]); }
   // Room for n jobs in the vectors it appends to (no copies as they grow; the slots grow with the jobs, so that
   // a table of a scene with many repeated triangles stays small enough to be cached).
   void reserve(size_t n, std::vector<Job>& jobs) {
@@ -1401,7 +1404,11 @@ Status bakePass(const CoreInputs& ci, const std::vector<std::vector<uint8_t>>& l
           }
           return b;
         }) & tbb::make_filter<PrepBlock*, void>(tbb::filter_mode::serial_in_order, [&](PrepBlock* b) {
+          constexpr uint32_t kAhead = 8;
+          for (uint32_t k = 0; k < std::min(kAhead, b->count); ++k)
+            if (!b->c[k].special) table.prefetch(b->c[k].hash);
           for (uint32_t k = 0; k < b->count; ++k) {
+            if (k + kAhead < b->count && !b->c[k + kAhead].special) table.prefetch(b->c[k + kAhead].hash);
             const Candidate& c = b->c[k];
             if (c.special) {
               pushRef(c.special, 0);

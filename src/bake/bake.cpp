@@ -1515,7 +1515,7 @@ Status bakePass(const CoreInputs& ci, const std::vector<std::vector<uint8_t>>& l
   }
   // The array's data is at most every job's map in every order it is needed in: reserved up front (address space;
   // pages are touched as maps are stored), the builder hands it over without concatenating chunks at the end.
-  constexpr uint64_t kReserveCap = uint64_t(2) << 30;
+  constexpr uint64_t kReserveCap = uint64_t(1) << 30;
   builder.reserveData(size_t(std::min(dataBound, kReserveCap)));
   const size_t tokens = size_t(std::max<uint64_t>(
       2 * uint64_t(arena.max_concurrency()) + 2,

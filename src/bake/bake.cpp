@@ -847,8 +847,8 @@ bool finite2(const std::array<float, 2>& p) {
 struct Baked {
   std::optional<State> uniform;
   Micromap map;
-  OmmArrayBuilder::MapKey
-      key;  // of `map` when not uniform (the scene bake computes it with the map, in parallel)
+  // The builder's key of `map` when not uniform (the scene bake computes it with the map, in parallel).
+  OmmArrayBuilder::MapKey key;
   uint64_t unknown = 0;
   uint64_t work = 0;  // TriangleClassifier::work
   bool nonFinite = false;

@@ -8,6 +8,7 @@
 // on`; filter linear; cutoff 0.5. OBJ's v = 0 is the bottom image row, so image rows are flipped on load and
 // UVs are kept as they are.
 #include <tbb/parallel_for.h>
+#include <tbb/task_group.h>
 #include <tiny_obj_loader.h>
 #include <unistd.h>
 
@@ -17,6 +18,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -294,9 +296,13 @@ class MtlReader : public tinyobj::MaterialReader {
     tinyobj::LoadMtl(matMap, materials, &in, warn, err);
     materialMap = matMap;
     read.push_back(p.string());
+    if (onMaterials) onMaterials(*materials);
     return true;
   }
   std::string error;
+  // Called with the materials read so far after each library (the loader starts decoding their textures while the
+  // parser goes on).
+  std::function<void(const std::vector<tinyobj::material_t>&)> onMaterials;
   std::vector<std::string> read;  // the material libraries read (Scene::inputFiles)
   // The parser's material name → index map (the one it passed to the last read; the UV-only load resolves usemtl
   // names in it as LoadObj does).
@@ -381,6 +387,12 @@ void fanCorner(uint32_t k, uint32_t li, uint32_t local[3], std::vector<uint32_t>
 class ObjLoader {
  public:
   ObjLoader(std::string path, const LoadOptions& opts) : path_(std::move(path)), opts_(opts) {}
+  ~ObjLoader() {
+    group_.cancel();  // an early return: the tasks not yet started are not needed
+    waitImages();
+  }
+  ObjLoader(const ObjLoader&) = delete;
+  ObjLoader& operator=(const ObjLoader&) = delete;
   Result<Scene> run();
   // The scene without positions, parsed by tinyobjloader's callback API (no whole-file arrays): the same result
   // as run() with Geometry::positions cleared, or `irregular` set when the file uses something the callback
@@ -403,12 +415,33 @@ class ObjLoader {
   Scene scene_;
   // Converted textures, shared by every material that uses the same file: loaded once per path.
   std::map<std::string, std::shared_ptr<const LoadedTexture>> images_;
-  // Every texture file the materials name, decoded and converted in parallel before the materials are read in
+  // Every texture file the materials name, decoded and converted by tasks of group_ before the materials are read in
   // order (at most one decoded image per thread is alive at a time; only the conversions are kept); image() takes
-  // its result from here (the same result a read in order would give).
+  // its result from here (the same result a read in order would give). The tasks start as soon as a material
+  // library has been read (MtlReader::onMaterials), so with two or more threads the textures are decoded while the
+  // OBJ is still being parsed; with one they run when collectImages() waits for them.
   std::map<std::string, TextureNeeds> needs_;
+  struct Pending {
+    std::string path;
+    TextureNeeds needs;  // what the task converts (needs_ may grow after it started)
+    std::optional<Result<std::shared_ptr<const LoadedTexture>>> result;
+  };
+  std::map<std::string, Pending> pending_;  // map nodes do not move: each task writes its own
   std::map<std::string, Result<std::shared_ptr<const LoadedTexture>>> decoded_;
-  void prefetchImages(const std::vector<tinyobj::material_t>& mats);
+  tbb::task_group group_;
+  bool waited_ = true;
+  // Starts a task for every texture file the materials name that has none yet, the largest files first.
+  void startImages(const std::vector<tinyobj::material_t>& mats);
+  // Waits for the tasks and moves their results to decoded_ (files whose needs grew are decoded again).
+  void collectImages();
+  void waitImages() noexcept {
+    if (waited_) return;
+    waited_ = true;
+    try {
+      group_.wait();
+    } catch (...) {  // a task's exception on a path that fails anyway (collectImages() rethrows it otherwise)
+    }
+  }
   // The paths image() tries for a texture name: relative to the OBJ's folder, then with backslashes as separators.
   std::vector<std::string> candidates(const std::string& texname) const {
     std::vector<std::string> paths;
@@ -469,7 +502,7 @@ Result<std::shared_ptr<const LoadedTexture>> ObjLoader::image(const std::string&
   return raw.value();
 }
 
-void ObjLoader::prefetchImages(const std::vector<tinyobj::material_t>& mats) {
+void ObjLoader::startImages(const std::vector<tinyobj::material_t>& mats) {
   auto add = [&](const std::string& texname, bool color, std::optional<AlphaChannel> channel) {
     if (texname.empty()) return;
     for (const std::string& path : candidates(texname)) {
@@ -485,14 +518,49 @@ void ObjLoader::prefetchImages(const std::vector<tinyobj::material_t>& mats) {
     bool supported = true;
     add(tm.alpha_texname, false, mapDChannel(tm.alpha_texopt.imfchan, supported));
   }
-  std::vector<std::pair<const std::string*, const TextureNeeds*>> paths;
-  for (const auto& [path, n] : needs_) paths.emplace_back(&path, &n);
-  std::vector<std::optional<Result<std::shared_ptr<const LoadedTexture>>>> results(paths.size());
+  std::vector<std::pair<uintmax_t, Pending*>> fresh;
+  for (const auto& [path, n] : needs_) {
+    auto [it, added] = pending_.try_emplace(path);
+    if (!added) continue;
+    it->second.path = path;
+    it->second.needs = n;
+    std::error_code ec;
+    const uintmax_t size = std::filesystem::file_size(path, ec);
+    fresh.emplace_back(ec ? 0 : size, &it->second);
+  }
+  // A thief takes the oldest task first: the largest files start first, the small ones fill in.
+  std::stable_sort(fresh.begin(), fresh.end(),
+                   [](const auto& a, const auto& b) { return a.first > b.first; });
+  for (const auto& f : fresh) {
+    Pending* slot = f.second;
+    waited_ = false;
+    group_.run([slot] { slot->result.emplace(loadTexture(slot->path, slot->needs)); });
+  }
+}
+
+void ObjLoader::collectImages() {
+  waited_ = true;
+  group_.wait();  // rethrows a task's exception (std::bad_alloc), as the parallel loop did
+  std::vector<std::pair<const std::string*, Pending*>> again;
+  for (auto& [path, p] : pending_) {
+    const TextureNeeds& n = needs_[path];
+    const bool covered =
+        p.result && (!n.color || p.needs.color) &&
+        std::includes(p.needs.channels.begin(), p.needs.channels.end(), n.channels.begin(), n.channels.end());
+    if (!covered) {
+      p.needs = n;
+      again.emplace_back(&path, &p);
+    }
+  }
+  // Files a later material library asked more of (rare): decoded again with everything they are needed for.
   tbb::parallel_for(
-      size_t(0), paths.size(),
-      [&](size_t i) { results[i].emplace(loadTexture(*paths[i].first, *paths[i].second)); },
+      size_t(0), again.size(),
+      [&](size_t i) {
+        again[i].second->result.emplace(loadTexture(*again[i].first, again[i].second->needs));
+      },
       tbb::simple_partitioner());
-  for (size_t i = 0; i < paths.size(); ++i) decoded_.emplace(*paths[i].first, std::move(*results[i]));
+  for (auto& [path, p] : pending_) decoded_.emplace(path, std::move(*p.result));
+  pending_.clear();
 }
 
 // Image formats that cannot store an alpha channel (by extension): a missing one cannot change the alpha test.
@@ -577,6 +645,7 @@ Result<Scene> ObjLoader::run() {
   std::vector<tinyobj::material_t> mats;
   std::string warn, err;
   MtlReader mtl(dir_, opts_.limits.mtlFileBytes);
+  mtl.onMaterials = [this](const std::vector<tinyobj::material_t>& m) { startImages(m); };
   bool ok = false;
   try {
     std::istream in(file.get());
@@ -688,7 +757,8 @@ Result<Scene> ObjLoader::run() {
 
 Result<Scene> ObjLoader::finish(const std::vector<tinyobj::material_t>& mats, int defaultMaterial,
                                 size_t degenerate) {
-  prefetchImages(mats);
+  startImages(mats);  // the textures of materials no library read announced (none when the hook saw them all)
+  collectImages();
   for (const auto& tm : mats) {
     Material m;
     Status st = material(tm, m);
@@ -807,6 +877,7 @@ Result<Scene> ObjLoader::runUvOnly(bool& irregular, uint64_t& nonFinite) {
   auto file = std::make_unique<ObjFileBuf>(opened->fd, opened->size, true);
   std::string warn, err;
   MtlReader mtl(dir_, opts_.limits.mtlFileBytes);
+  mtl.onMaterials = [this](const std::vector<tinyobj::material_t>& m) { startImages(m); };
   UvParse u;
   u.scene = &scene_;
   u.file = file.get();

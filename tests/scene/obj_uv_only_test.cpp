@@ -5,6 +5,7 @@
 // a corpus of small files that exercise shape splitting, materials, index forms and every irregular case, on the
 // bundled OBJ and on the real scenes in ../shared/assets/foliage when present.
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <cmath>
 #include <cstdlib>
@@ -240,6 +241,74 @@ namespace {
 TEST(ObjUvOnly, GltfSameAsFullLoadWithoutPositions) {
   for (const char* rel : {"/oak-tree/oaktree.gltf", "/alpha-blend-mode-test/AlphaBlendModeTest.gltf"})
     EXPECT_GT(expectSameLoad(std::string(SOMM_DATA_DIR) + rel), 0) << rel;
+}
+
+}  // namespace
+
+namespace {
+
+// The textures of a material library are decoded as soon as the library has been read, while the OBJ is still being
+// parsed. A later library may ask more of the same file (here: its red channel as map_d, after the first asked for
+// its alpha as map_Kd): the file is then decoded again for everything. Oracle: the same materials in one library
+// (all needs known at once), at one and at two threads, with and without positions; the texels checked exactly.
+TEST(ObjUvOnly, TexturesOfLaterLibrariesAndGrownNeeds) {
+  TempDir dir;
+  // 2x2 RGBA: red 255, 0, 0, 9; alpha 255, 0, 128, 64 (rows flipped on load: OBJ's v = 0 is the bottom row).
+  scenetest::writePng8(dir.file("leaf.png"), 2, 2, 4,
+                       {255, 0, 0, 255, 0, 255, 0, 0, 0, 0, 255, 128, 9, 9, 9, 64});
+  scenetest::writePng8(dir.file("bark.png"), 1, 1, 2, {10, 20});
+  // bark.png: first as c's map_d (its alpha), then as d's map_Kd (colour and alpha).
+  const std::string a = "newmtl a\nmap_Kd leaf.png\nnewmtl c\nmap_d bark.png\n";
+  const std::string b = "newmtl b\nmap_d -imfchan r leaf.png\nnewmtl d\nmap_Kd bark.png\n";
+  writeFile(dir.file("m1.mtl"), a);
+  writeFile(dir.file("m2.mtl"), b);
+  writeFile(dir.file("both.mtl"), a + b);
+  const std::string body =
+      "v 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nusemtl a\nf 1/1 2/2 3/3\nusemtl c\nf 1/1 2/2 3/3\n";
+  const std::string tail = "usemtl b\nf 1/1 2/2 3/3\nusemtl d\nf 1/1 2/2 3/3\n";
+  writeFile(dir.file("two.obj"), "mtllib m1.mtl\n" + body + "mtllib m2.mtl\n" + tail);
+  writeFile(dir.file("one.obj"), "mtllib both.mtl\n" + body + tail);
+  const std::vector<float> alphaOfA = {128 / 255.0f, 64 / 255.0f, 1.0f, 0.0f},
+                           redOfB = {0.0f, 9 / 255.0f, 1.0f, 0.0f};
+  for (size_t threads : {1, 2}) {
+    tbb::global_control cap(tbb::global_control::max_allowed_parallelism, threads);
+    for (bool positions : {false, true}) {
+      SCOPED_TRACE(std::to_string(threads) + " threads, positions " + std::to_string(positions));
+      somm::LoadOptions o;
+      o.loadPositions = positions;
+      auto two = somm::loadScene(dir.file("two.obj"), o);
+      auto one = somm::loadScene(dir.file("one.obj"), o);
+      ASSERT_TRUE(two.ok()) << two.error().message;
+      ASSERT_TRUE(one.ok()) << one.error().message;
+      ASSERT_EQ(two->materials.size(), 4u);
+      ASSERT_EQ(one->materials.size(), 4u);
+      for (size_t m = 0; m < 4; ++m) {
+        EXPECT_EQ(two->materials[m].name, one->materials[m].name);
+        EXPECT_TRUE(sameTexture(two->materials[m].alpha, one->materials[m].alpha)) << m;
+        ASSERT_TRUE(two->materials[m].alpha) << m;
+      }
+      EXPECT_EQ(two->materials[0].alpha->values(), alphaOfA);
+      EXPECT_EQ(two->materials[1].alpha->values(), std::vector<float>{20 / 255.0f});
+      EXPECT_EQ(two->materials[2].alpha->values(), redOfB);
+      EXPECT_EQ(two->materials[3].alpha->values(), std::vector<float>{20 / 255.0f});
+      // d's colour: bark.png decoded again once d asked for it (c's task had not converted the colour).
+      ASSERT_TRUE(two->materials[3].baseColor);
+      ASSERT_TRUE(one->materials[3].baseColor);
+      EXPECT_EQ(two->materials[3].baseColor->width, 1u);
+      EXPECT_FALSE(two->materials[2].baseColor);
+    }
+  }
+  // A texture that fails to decode fails the load with the material's name, however early it was started.
+  writeFile(dir.file("bark.png"), "not a png");
+  for (size_t threads : {1, 2}) {
+    tbb::global_control cap(tbb::global_control::max_allowed_parallelism, threads);
+    somm::LoadOptions o;
+    o.loadPositions = false;
+    auto r = somm::loadScene(dir.file("two.obj"), o);
+    ASSERT_FALSE(r.ok());
+    EXPECT_NE(r.error().message.find("material 'c': texture '"), std::string::npos) << r.error().message;
+    EXPECT_NE(r.error().message.find("bark.png"), std::string::npos) << r.error().message;
+  }
 }
 
 }  // namespace

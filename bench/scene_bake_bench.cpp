@@ -396,6 +396,7 @@ std::pair<double, double> commandPeakMiB(const std::string& path, uint32_t level
     double res[2] = {-1, 0};
 #ifdef __GLIBC__
     mallopt(M_MMAP_THRESHOLD, 4 << 20);
+    mallopt(M_TRIM_THRESHOLD, 1 << 30);
     mallopt(M_ARENA_MAX, 1);
     malloc_trim(0);
 #endif

@@ -20,6 +20,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <memory>
 #include <string>
 #include <thread>
 #include <unordered_map>
@@ -1171,12 +1172,32 @@ void removePeriods(double v[3], uint32_t size, Wrap w) noexcept {
   for (int i = 0; i < 3; ++i) v[i] -= k * period;
 }
 
+// Jobs by id, in chunks of 1024 (64 KiB each): no copies as they are appended and no reservation for every
+// triangle — a block that large is mapped afresh, and its pages faulted in one by one by the serial stage that
+// appends the jobs (TORCS forza level 6: 476 faults, 4-6 of that stage's 6-8 ms on a VM where a first touch costs
+// ~10 µs), where chunks of the heap reuse memory the process has touched before.
+class JobStore {
+ public:
+  size_t size() const noexcept { return size_; }
+  const Job& operator[](size_t i) const noexcept { return chunks_[i >> kShift][i & kMask]; }
+  void push_back(const Job& j) {
+    if ((size_ & kMask) == 0) chunks_.emplace_back(new Job[kMask + 1]);
+    chunks_[size_ >> kShift][size_ & kMask] = j;
+    ++size_;
+  }
+
+ private:
+  static constexpr size_t kShift = 10, kMask = (size_t(1) << kShift) - 1;
+  std::vector<std::unique_ptr<Job[]>> chunks_;
+  size_t size_ = 0;
+};
+
 // Open-addressing table of job ids keyed by their inputs. Each job's hash (hashJob) is kept beside it: probes
 // compare hashes before inputs, and growing does not hash again.
 class JobTable {
  public:
   // The id of an equal job, or the new job's id (appended to `jobs`); h = hashJob(j).
-  uint32_t insert(const Job& j, uint64_t h, std::vector<Job>& jobs) {
+  uint32_t insert(const Job& j, uint64_t h, JobStore& jobs) {
     if ((jobs.size() + 1) * 2 > slots_.size()) grow();
     const size_t m = slots_.size() - 1;
     const uint64_t tag = h & kTagMask;
@@ -1195,12 +1216,9 @@ class JobTable {
   // Starts loading the slot a job of hash h is probed at first (the serial stage prefetches a few triangles ahead:
   // the table does not stay in the cache of the thread that runs that stage).
   void prefetch(uint64_t h) const noexcept { __builtin_prefetch(&slots_[h & (slots_.size() - 1)]); }
-  // Room for n jobs in the vectors it appends to (no copies as they grow; the slots grow with the jobs, so that
-  // a table of a scene with many repeated triangles stays small enough to be cached).
-  void reserve(size_t n, std::vector<Job>& jobs) {
-    jobs.reserve(n);
-    hashes_.reserve(n);
-  }
+  // Room for n jobs' hashes (no copies as they grow; the slots grow with the jobs, so that a table of a scene with
+  // many repeated triangles stays small enough to be cached).
+  void reserve(size_t n) { hashes_.reserve(n); }
 
  private:
   // A slot: 0 (empty), else the job's id + 1 in the low 32 bits and the hash's high 32 bits (compared before the
@@ -1306,14 +1324,14 @@ Status bakePass(const CoreInputs& ci, const std::vector<std::vector<uint8_t>>& l
                 const BakeOptions& o, tbb::task_arena& arena, SceneBake& out, double progressBase,
                 double progressSpan) {
   const BakeInputs& in = ci.in;
-  std::vector<Job> jobs;
+  JobStore jobs;
   JobTable table;
   // Triangle references in scene order (geometry, triangle).
   uint64_t triangles = 0;
   for (uint32_t g = 0; g < in.geometryCount; ++g) triangles += in.geometries[g].triangleCount;
   std::vector<uint32_t> refs;
   refs.reserve(size_t(triangles));
-  table.reserve(size_t(triangles), jobs);
+  table.reserve(size_t(triangles));
   // A triangle listing a job's corners in another order refers to the job and that order (refOrder: an index into
   // kVertexOrders per triangle, allocated at the first such triangle); jobTwins: per job, bit o = some triangle
   // needs its map in order o.

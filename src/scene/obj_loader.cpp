@@ -431,7 +431,10 @@ class ObjLoader {
   ObjLoader(std::string path, const LoadOptions& opts) : path_(std::move(path)), opts_(opts) {}
   ~ObjLoader() {
     group_.cancel();  // an early return: the tasks not yet started are not needed
-    waitImages();
+    try {
+      group_.wait();  // (nothing left after collectImages())
+    } catch (...) {  // a task's exception on a path that fails anyway (collectImages() rethrows it otherwise)
+    }
   }
   ObjLoader(const ObjLoader&) = delete;
   ObjLoader& operator=(const ObjLoader&) = delete;
@@ -464,26 +467,16 @@ class ObjLoader {
   // OBJ is still being parsed; with one they run when collectImages() waits for them.
   std::map<std::string, TextureNeeds> needs_;
   struct Pending {
-    std::string path;
     TextureNeeds needs;  // what the task converts (needs_ may grow after it started)
     std::optional<Result<std::shared_ptr<const LoadedTexture>>> result;
   };
   std::map<std::string, Pending> pending_;  // map nodes do not move: each task writes its own
   std::map<std::string, Result<std::shared_ptr<const LoadedTexture>>> decoded_;
   tbb::task_group group_;
-  bool waited_ = true;
   // Starts a task for every texture file the materials name that has none yet, the largest files first.
   void startImages(const std::vector<tinyobj::material_t>& mats);
   // Waits for the tasks and moves their results to decoded_ (files whose needs grew are decoded again).
   void collectImages();
-  void waitImages() noexcept {
-    if (waited_) return;
-    waited_ = true;
-    try {
-      group_.wait();
-    } catch (...) {  // a task's exception on a path that fails anyway (collectImages() rethrows it otherwise)
-    }
-  }
   // The paths image() tries for a texture name: relative to the OBJ's folder, then with backslashes as separators.
   std::vector<std::string> candidates(const std::string& texname) const {
     std::vector<std::string> paths;
@@ -560,28 +553,26 @@ void ObjLoader::startImages(const std::vector<tinyobj::material_t>& mats) {
     bool supported = true;
     add(tm.alpha_texname, false, mapDChannel(tm.alpha_texopt.imfchan, supported));
   }
-  std::vector<std::pair<uintmax_t, Pending*>> fresh;
+  std::vector<std::pair<uintmax_t, std::map<std::string, Pending>::iterator>> fresh;
   for (const auto& [path, n] : needs_) {
     auto [it, added] = pending_.try_emplace(path);
     if (!added) continue;
-    it->second.path = path;
     it->second.needs = n;
     std::error_code ec;
     const uintmax_t size = std::filesystem::file_size(path, ec);
-    fresh.emplace_back(ec ? 0 : size, &it->second);
+    fresh.emplace_back(ec ? 0 : size, it);
   }
   // A thief takes the oldest task first: the largest files start first, the small ones fill in.
   std::stable_sort(fresh.begin(), fresh.end(),
                    [](const auto& a, const auto& b) { return a.first > b.first; });
   for (const auto& f : fresh) {
-    Pending* slot = f.second;
-    waited_ = false;
-    group_.run([slot] { slot->result.emplace(loadTexture(slot->path, slot->needs)); });
+    const std::string* path = &f.second->first;
+    Pending* slot = &f.second->second;
+    group_.run([path, slot] { slot->result.emplace(loadTexture(*path, slot->needs)); });
   }
 }
 
 void ObjLoader::collectImages() {
-  waited_ = true;
   group_.wait();  // rethrows a task's exception (std::bad_alloc), as the parallel loop did
   std::vector<std::pair<const std::string*, Pending*>> again;
   for (auto& [path, p] : pending_) {

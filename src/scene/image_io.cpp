@@ -149,8 +149,8 @@ std::vector<uint8_t> dropEmptyIdat(const uint8_t* p, size_t n) {
 
 }  // namespace
 
-Result<RawImage> decodeImage(const uint8_t* data, size_t size, const Limits& limits, uint64_t* decodedBytes,
-                             bool fastPng) {
+Result<ImageHeader> checkImage(const uint8_t* data, size_t size, const Limits& limits,
+                               uint64_t* decodedBytes) {
   if (size == 0) return makeError(ErrorCode::CorruptFile, "empty image data");
   if (size > size_t(INT_MAX)) return makeError(ErrorCode::LimitExceeded, "image data larger than 2 GiB");
   const int n = int(size);
@@ -183,6 +183,14 @@ Result<RawImage> decodeImage(const uint8_t* data, size_t size, const Limits& lim
                            limitHint("decoded-bytes", limits.decodedImageBytes));
     *decodedBytes += cost;
   }
+  return ImageHeader{uint32_t(w), uint32_t(h), uint32_t(comp)};
+}
+
+Result<RawImage> decodeImage(const uint8_t* data, size_t size, const Limits& limits, uint64_t* decodedBytes,
+                             bool fastPng) {
+  Result<ImageHeader> header = checkImage(data, size, limits, decodedBytes);
+  if (!header.ok()) return header.error();
+  const int w = int(header->width), h = int(header->height), comp = int(header->channels);
   if (RawImage fast; fastPng && decodePngFast(data, size, fast)) {
     if (fast.width == uint32_t(w) && fast.height == uint32_t(h) && fast.channels == uint32_t(comp))
       return fast;
@@ -224,7 +232,7 @@ Result<RawImage> decodeImage(const uint8_t* data, size_t size, const Limits& lim
   return img;
 }
 
-Result<RawImage> readImageFile(const std::string& path, const Limits& limits, uint64_t* decodedBytes) {
+Result<std::vector<uint8_t>> readImageBytes(const std::string& path, const Limits& limits) {
   // Only regular files, at most the image cap: a directory made the read throw (std::terminate, found by fuzz_obj
   // with `map_Kd /`), /dev/zero would never end and a FIFO would block.
   auto bytes = readRegularFile(path, limits.imageFileBytes, "image", "file-bytes.image");
@@ -235,6 +243,12 @@ Result<RawImage> readImageFile(const std::string& path, const Limits& limits, ui
     if (msg.rfind(prefix, 0) == 0) msg = msg.substr(prefix.size());
     return makeError(bytes.error().code, msg);
   }
+  return bytes;
+}
+
+Result<RawImage> readImageFile(const std::string& path, const Limits& limits, uint64_t* decodedBytes) {
+  auto bytes = readImageBytes(path, limits);
+  if (!bytes) return bytes.error();
   return decodeImage(bytes->data(), bytes->size(), limits, decodedBytes);
 }
 

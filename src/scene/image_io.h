@@ -34,6 +34,16 @@ struct RawImage {
   bool hasAlpha() const noexcept { return channels == 2 || channels == 4; }
 };
 
+// An encoded image's declared size, as checkImage reads it from the header.
+struct ImageHeader {
+  uint32_t width = 0, height = 0, channels = 0;
+};
+
+// What decodeImage checks before it decodes (the format's header, the corrupt-table checks, limits.imagePixels and,
+// when decodedBytes is given, the charge against limits.decodedImageBytes, *decodedBytes updated), nothing decoded.
+// A loader that decodes in parallel charges its images in order with this, then decodes them with decodedBytes null.
+Result<ImageHeader> checkImage(const uint8_t* data, size_t size, const Limits& limits = defaultLimits(),
+                               uint64_t* decodedBytes = nullptr);
 // Decodes an encoded image held in memory. The error message is the reason only (the caller adds context).
 // The declared size is checked against limits.imagePixels and, when decodedBytes is given, the decoded bytes of
 // the scene so far (*decodedBytes, updated) against limits.decodedImageBytes, before anything is decoded.
@@ -42,6 +52,8 @@ Result<RawImage> decodeImage(const uint8_t* data, size_t size, const Limits& lim
                              uint64_t* decodedBytes = nullptr, bool fastPng = true);
 // Reads (a regular file, at most limits.imageFileBytes) and decodes an image file. The error message is the
 // reason only.
+// Reads an image file's bytes (a regular file, at most limits.imageFileBytes). The error message is the reason only.
+Result<std::vector<uint8_t>> readImageBytes(const std::string& path, const Limits& limits = defaultLimits());
 Result<RawImage> readImageFile(const std::string& path, const Limits& limits = defaultLimits(),
                                uint64_t* decodedBytes = nullptr);
 

@@ -2,8 +2,10 @@
 // glTF loading: .gltf (external and data-URI buffers), .glb, images of every layout, materials, samplers,
 // KHR_texture_transform, node hierarchy, camera, and malformed files.
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <cmath>
+#include <cstring>
 #include <functional>
 #include <numbers>
 
@@ -440,6 +442,114 @@ TEST(Gltf, MissingAndCorruptTexturesNameMaterialAndPath) {
     EXPECT_NE(m.find("'leaf'"), std::string::npos) << m;
     EXPECT_NE(m.find("bad.png"), std::string::npos) << m;
     EXPECT_NE(m.find("decode"), std::string::npos) << m;
+  }
+}
+
+// The images are decoded in parallel after the materials are read: the same textures and errors at one and two
+// threads, an image shared by materials decoded once (one texture per alpha factor), a decode error reported at the
+// first material that takes the image (before a later material's error, after an earlier one's), and an opaque
+// material's image not decoded when colours are not loaded.
+TEST(Gltf, ImagesDecodedInParallelAsIfInMaterialOrder) {
+  TempDir dir;
+  // Three images of distinct sizes and alphas (largest first is the decode order, not the material order).
+  auto image = [](int w, uint8_t base) {
+    std::vector<uint8_t> px;
+    for (int x = 0; x < w; ++x) px.insert(px.end(), {uint8_t(x), 2, 3, uint8_t(base + 7 * x)});
+    return scenetest::encodePng8(w, 1, 4, px);
+  };
+  const std::vector<std::pair<int, uint8_t>> shapes = {{3, 10}, {9, 40}, {5, 90}};
+  // Image 1 with a valid header but a corrupt stream (the first deflate block of the reserved type 3): it fails
+  // when decoded, not when its header is checked.
+  std::vector<uint8_t> corrupt = image(shapes[1].first, shapes[1].second);
+  for (size_t i = 8; i + 8 < corrupt.size(); ++i)
+    if (std::memcmp(corrupt.data() + i, "IDAT", 4) == 0) {
+      corrupt[i + 4 + 2] = 0xff;
+      break;
+    }
+  auto build = [&](bool corruptSecond) {
+    GltfBuilder b = quadGltf();
+    for (size_t k = 0; k < shapes.size(); ++k)
+      b.imageDataUri(k == 1 && corruptSecond ? corrupt : image(shapes[k].first, shapes[k].second));
+    b.j["textures"] = {{{"source", 0}}, {{"source", 1}}, {{"source", 2}}};
+    auto mat = [](const char* name, int tex, double factor, const char* mode) {
+      return nlohmann::json{
+          {"name", name},
+          {"alphaMode", mode},
+          {"pbrMetallicRoughness",
+           {{"baseColorTexture", {{"index", tex}}}, {"baseColorFactor", {1, 1, 1, factor}}}}};
+    };
+    // m0 and m2 share image 2 with one factor, m3 takes it with another; m1 takes image 1, m4 image 0 (opaque).
+    b.j["materials"] = {mat("m0", 2, 1.0, "MASK"), mat("m1", 1, 1.0, "MASK"), mat("m2", 2, 1.0, "MASK"),
+                        mat("m3", 2, 0.5, "MASK"), mat("m4", 0, 1.0, "OPAQUE")};
+    return b;
+  };
+  build(false).writeGltf(dir.file("ok.gltf"));
+  build(true).writeGltf(dir.file("bad1.gltf"));
+  {
+    GltfBuilder b = build(true);
+    b.j["materials"][3]["alphaCutoff"] = -1;  // a later material's error: image 1's (at m1) comes first
+    b.writeGltf(dir.file("bad1late.gltf"));
+  }
+  {
+    GltfBuilder b = build(true);
+    b.j["materials"][0]["alphaCutoff"] = -1;  // an earlier material's error comes first
+    b.writeGltf(dir.file("bad1early.gltf"));
+  }
+  {
+    GltfBuilder b = build(false);
+    b.j["images"][0] = {{"uri", "data:image/png;base64,AAAA"}};  // only the opaque m4 takes it
+    b.writeGltf(dir.file("opaquebad.gltf"));
+  }
+  for (int threads : {1, 2}) {
+    SCOPED_TRACE(std::to_string(threads) + " threads");
+    tbb::global_control cap(tbb::global_control::max_allowed_parallelism, size_t(threads));
+    for (bool color : {false, true}) {
+      somm::LoadOptions o;
+      o.loadColor = color;
+      auto r = somm::loadScene(dir.file("ok.gltf"), o);
+      ASSERT_TRUE(r.ok()) << r.error().message;
+      const auto& ms = r->materials;
+      ASSERT_EQ(ms.size(), 5u);
+      auto expectAlpha = [](const somm::Material& m, int w, uint8_t base, float factor) {
+        ASSERT_TRUE(m.alpha) << m.name;
+        ASSERT_EQ(m.alpha->width, uint32_t(w));
+        for (int x = 0; x < w; ++x)
+          EXPECT_EQ(m.alpha->at(uint32_t(x), 0), float(uint8_t(base + 7 * x)) / 255.0f * factor)
+              << m.name << x;
+      };
+      expectAlpha(ms[0], 5, 90, 1.0f);
+      expectAlpha(ms[1], 9, 40, 1.0f);
+      expectAlpha(ms[3], 5, 90, 0.5f);
+      EXPECT_EQ(ms[0].alpha, ms[2].alpha);  // one conversion per (image, factor)
+      EXPECT_NE(ms[0].alpha, ms[3].alpha);
+      EXPECT_FALSE(ms[4].alpha);  // opaque
+      if (color) {
+        ASSERT_TRUE(ms[4].baseColor);
+        EXPECT_EQ(ms[4].baseColor->width, 3u);
+        EXPECT_EQ(ms[0].baseColor, ms[3].baseColor);
+        ASSERT_TRUE(ms[1].baseColor);
+        EXPECT_EQ(ms[1].baseColor->width, 9u);
+      } else {
+        for (const somm::Material& m : ms) EXPECT_FALSE(m.baseColor) << m.name;
+      }
+    }
+    auto error = [&](const char* file, bool color) {
+      somm::LoadOptions o;
+      o.loadColor = color;
+      auto r = somm::loadScene(dir.file(file), o);
+      return r.ok() ? std::string("(loaded)") : r.error().message;
+    };
+    for (const char* f : {"bad1.gltf", "bad1late.gltf"}) {
+      const std::string m = error(f, false);
+      EXPECT_NE(m.find("material 'm1': texture image 1 (data URI): cannot decode image"), std::string::npos)
+          << m;
+    }
+    EXPECT_NE(error("bad1early.gltf", false).find("material 'm0': invalid alphaCutoff"), std::string::npos)
+        << error("bad1early.gltf", false);
+    EXPECT_EQ(error("opaquebad.gltf", false), "(loaded)");  // nothing is taken from m4's image
+    EXPECT_NE(error("opaquebad.gltf", true).find("material 'm4': texture image 0 (data URI)"),
+              std::string::npos)
+        << error("opaquebad.gltf", true);
   }
 }
 

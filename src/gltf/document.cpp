@@ -63,7 +63,9 @@ bool getInt(const json& o, const char* key, int64_t& out) {
   }
   if (it->is_number_float()) {  // 3.0 is an integer in JSON Schema terms
     const double d = it->get<double>();
-    if (d == double(int64_t(d)) && d > -9.0e18 && d < 9.0e18) {
+    // The range first: converting a double outside int64_t's range (or NaN) is undefined (found by fuzz_gltf:
+    // 8.9e25).
+    if (d > -9.0e18 && d < 9.0e18 && d == double(int64_t(d))) {
       out = int64_t(d);
       return true;
     }

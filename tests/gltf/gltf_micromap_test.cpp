@@ -428,6 +428,11 @@ TEST(GltfMicromap, EveryMustViolationIsRejected) {
        "micromapBaseTriangle MUST be an integer >= 0"},
       {"index + base < records", [&](json& j) { prim(j, 1)["micromapBaseTriangle"] = 2; },
        "MUST be less than the 2 triangle records"},
+      // Numbers beyond int64_t as JSON floats (the range is checked before the conversion: fuzz_gltf found 8.9e25).
+      {"base triangle beyond int64", [&](json& j) { prim(j, 1)["micromapBaseTriangle"] = 8.9e25; },
+       "micromapBaseTriangle MUST be an integer >= 0"},
+      {"byteLength beyond int64", [&](json& j) { j["buffers"][0]["byteLength"] = -8.9e25; },
+       "byteLength MUST be an integer >= 1"},
       {"micromapIndices an accessor", [&](json& j) { prim(j, 0)["micromapIndices"] = 40; },
        "micromapIndices MUST be a valid accessor index"},
       {"micromapIndices SCALAR", [&](json& j) { j["accessors"][2]["type"] = "VEC2"; }, "type MUST be SCALAR"},

@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: MIT
 // Fuzz target: image decoding (stb_image through the scene loader's decodeImage: PNG, JPEG, TGA, BMP, ...)
-// and the conversions to alpha and colour textures; the PNG fast path (libdeflate) must equal stb wherever it decodes. Decoded sizes must be consistent, alphas in [0, 1], and a
-// small input must not allocate a huge image (run with -malloc_limit_mb, see fuzz_image.options).
+// and the conversions to alpha and colour textures; the PNG fast path (libdeflate) must equal stb wherever it
+// decodes, and the alpha channel decoded alone (decodeAlphaFast) the whole decode's alpha texture. Decoded sizes must
+// be consistent, alphas in [0, 1], and a small input must not allocate a huge image (run with -malloc_limit_mb, see
+// fuzz_image.options).
 #include <stb_image.h>
 
 #include <climits>
@@ -37,6 +39,19 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     return 0;
   }
   const detail::RawImage& img = *r;
+  // The alpha channel alone (what the loaders take when only the alpha is needed) equals the whole decode's.
+  if (const Result<detail::ImageHeader> hd = detail::checkImage(data, size); hd.ok()) {
+    for (bool flip : {false, true}) {
+      const auto a = detail::decodeAlphaFast(data, size, *hd, detail::AlphaChannel::AlphaOrOne, 0.75f, flip);
+      if (!a) continue;
+      const AlphaTexture t = detail::toAlphaTexture(img, detail::AlphaChannel::AlphaOrOne, 0.75f, flip);
+      if (a->width != t.width || a->height != t.height || a->storage != t.storage || a->alpha8 != t.alpha8 ||
+          a->scale != t.scale)
+        fuzz::fail("fuzz_image", "the alpha channel alone differs from the whole decode's");
+    }
+  } else {
+    fuzz::fail("fuzz_image", "checkImage rejects what decodeImage decodes");
+  }
   if (img.width == 0 || img.height == 0 || img.channels < 1 || img.channels > 4 || !img.samples)
     fuzz::fail("fuzz_image", "inconsistent decoded image");
   for (detail::AlphaChannel c : {detail::AlphaChannel::AlphaOrOne, detail::AlphaChannel::AlphaOrLuminance,

@@ -473,6 +473,17 @@ Status GltfLoader::loadMaterials() {
       size_t(0), order.size(),
       [&](size_t k) {
         ImagePlan& p = plans_[order[k]];
+        if (!p.color && p.alphaFactors.size() == 1) {
+          // The alpha alone (`somm bake`): when the image is a PNG with an alpha channel, only that is decoded.
+          const Result<ImageHeader> header = checkImage(p.data, p.size, opts_.limits, nullptr);
+          if (header.ok()) {
+            if (auto a = decodeAlphaFast(p.data, p.size, *header, AlphaChannel::AlphaOrOne, p.alphaFactors[0],
+                                         false)) {
+              p.alpha.push_back(std::make_shared<const AlphaTexture>(std::move(*a)));
+              return;
+            }
+          }
+        }
         Result<RawImage> raw = decodeImage(p.data, p.size, opts_.limits, nullptr);  // charged by requestImage
         if (!raw.ok()) {
           p.error = raw.error();

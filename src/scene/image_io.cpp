@@ -232,6 +232,17 @@ Result<RawImage> decodeImage(const uint8_t* data, size_t size, const Limits& lim
   return img;
 }
 
+std::optional<AlphaTexture> decodeAlphaFast(const uint8_t* data, size_t size, const ImageHeader& header,
+                                            AlphaChannel channel, float factor, bool flipRows) {
+  if (channel != AlphaChannel::AlphaOrOne && channel != AlphaChannel::AlphaOrLuminance) return std::nullopt;
+  std::vector<uint8_t> alpha;
+  uint32_t w = 0, h = 0, c = 0;
+  if (!decodePngAlphaFast(data, size, flipRows, alpha, w, h, c)) return std::nullopt;
+  // decodeImage keeps the fast path's result only when it agrees with the header stb reads: the same here.
+  if (w != header.width || h != header.height || c != header.channels) return std::nullopt;
+  return AlphaTexture::fromUInt8(w, h, std::move(alpha), factor);
+}
+
 Result<std::vector<uint8_t>> readImageBytes(const std::string& path, const Limits& limits) {
   // Only regular files, at most the image cap: a directory made the read throw (std::terminate, found by fuzz_obj
   // with `map_Kd /`), /dev/zero would never end and a FIFO would block.

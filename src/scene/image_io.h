@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <cstring>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -73,6 +74,13 @@ inline bool hasPngSignature(const uint8_t* p, size_t n) noexcept {
 // requested channels, a palette padded to 256 entries) byte for byte.
 // Does no limit checks of its own beyond stb's dimension bounds: decodeImage checks first.
 bool decodePngFast(const uint8_t* data, size_t size, RawImage& out);
+// The alpha channel of a PNG of the fast path's subset that has one — grey+alpha, RGBA, or a palette with tRNS —
+// decoded on its own: the zlib stream inflated, only the alpha bytes unfiltered (a PNG filter predicts each byte from
+// the same channel's neighbours), written as width · height bytes, rows bottom-up when flipRows; `channels` is what
+// decodePngFast would give (2 or 4). The same bytes as decodePngFast's alpha channel. False for anything else (no
+// alpha channel, outside the subset, any failure).
+bool decodePngAlphaFast(const uint8_t* data, size_t size, bool flipRows, std::vector<uint8_t>& alpha,
+                        uint32_t& width, uint32_t& height, uint32_t& channels);
 // PNG unfiltering of `height` rows of `width` pixels of `channels` bytes, each row preceded by its filter-type byte
 // (the inflated IDAT stream), in place; then the rows packed without their filter bytes. False on a filter type
 // above 4. simd: SSE2 for 4-byte pixels where available (the same bytes as without).
@@ -91,6 +99,12 @@ enum class AlphaChannel : uint8_t {
 // Alpha texture of an image: value × factor, clamped to [0, 1]. flipRows: texture row y = image row H-1-y
 // (OBJ).
 AlphaTexture toAlphaTexture(const RawImage& img, AlphaChannel channel, float factor, bool flipRows);
+// What toAlphaTexture(decodeImage(data, size), channel, factor, flipRows) gives, made without decoding the other
+// channels, when the channel is the image's alpha (AlphaOrOne / AlphaOrLuminance) and decodePngAlphaFast takes the
+// image; nullopt otherwise (the caller then decodes it whole). `header`: checkImage's result for these bytes (its
+// checks and the charge are the caller's).
+std::optional<AlphaTexture> decodeAlphaFast(const uint8_t* data, size_t size, const ImageHeader& header,
+                                            AlphaChannel channel, float factor, bool flipRows);
 // RGBA8 colour image (grey expanded, missing alpha = 255, 16 bit rounded to 8).
 ColorImage toColorImage(const RawImage& img, bool flipRows);
 

@@ -348,10 +348,25 @@ struct LoadedTexture {
 
 // Reads and decodes one texture file and converts it at once (the decoded image is freed on return).
 Result<std::shared_ptr<const LoadedTexture>> loadTexture(const std::string& path, const TextureNeeds& needs) {
-  Result<RawImage> raw = readImageFile(path);
-  if (!raw.ok()) return raw.error();
-  const RawImage& img = raw.value();
+  Result<std::vector<uint8_t>> bytes = readImageBytes(path);
+  if (!bytes.ok()) return bytes.error();
   auto t = std::make_shared<LoadedTexture>();
+  if (!needs.color && needs.channels.size() == 1) {
+    // Only one channel, no colour (`somm bake`): when it is the alpha of a PNG that has one, that channel alone is
+    // decoded (the same texture as below; the header's checks are decodeImage's).
+    const AlphaChannel ch = *needs.channels.begin();
+    Result<ImageHeader> header = checkImage(bytes->data(), bytes->size());
+    if (!header.ok()) return header.error();
+    if (auto a = decodeAlphaFast(bytes->data(), bytes->size(), *header, ch, 1.0f, true)) {
+      t->hasAlpha = true;
+      t->alpha[ch] = std::make_shared<const AlphaTexture>(std::move(*a));
+      return std::shared_ptr<const LoadedTexture>(std::move(t));
+    }
+  }
+  Result<RawImage> raw = decodeImage(bytes->data(), bytes->size());
+  if (!raw.ok()) return raw.error();
+  std::vector<uint8_t>().swap(*bytes);  // the file's bytes are not needed any more
+  const RawImage& img = raw.value();
   t->hasAlpha = img.hasAlpha();
   for (AlphaChannel ch : needs.channels)
     if (ch != AlphaChannel::AlphaOrOne || img.hasAlpha())

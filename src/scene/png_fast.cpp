@@ -24,6 +24,16 @@ inline uint8_t paeth(int a, int b, int c) {
   return uint8_t(pa <= pb && pa <= pc ? a : pb <= pc ? b : c);
 }
 
+// The same predictor in libpng's form (pa = |b − c|, pb = |a − c|, pc = |a + b − 2c|, then two selects): compilers
+// make it branch-free.
+inline int paethSelect(int a, int b, int c) {
+  const int p = b - c, q = a - c;
+  int pa = std::abs(p);
+  const int pb = std::abs(q), pc = std::abs(p + q);
+  if (pb < pa) pa = pb, a = b;
+  return pc < pa ? c : a;
+}
+
 // One row unfiltered in place: `row` holds the filtered bytes (rb of them, pixels of kBpp bytes), `prior` the
 // previous row unfiltered, or null for the first row (a row of zeros).
 template <int kBpp>
@@ -183,7 +193,21 @@ bool pngUnfilter(uint8_t* buf, uint32_t width, uint32_t height, uint32_t channel
   return true;
 }
 
-bool decodePngFast(const uint8_t* data, size_t size, RawImage& out) {
+namespace {
+
+// A PNG of the fast path's subset, its zlib stream inflated: `buf` holds h rows of 1 + rb bytes (the filter type,
+// then the row's filtered bytes), rb = w · streamChannels; a palette image's palette (padded to 256 entries as
+// decodeImage pads it for stb) and whether it has tRNS.
+struct PngStream {
+  uint32_t w = 0, h = 0, streamChannels = 0;
+  bool indexed = false;
+  int trnsCount = 0;
+  uint8_t palette[256][4] = {};
+  size_t rb = 0;
+  std::unique_ptr<uint8_t, decltype(&std::free)> buf{nullptr, &std::free};
+};
+
+bool inflatePng(const uint8_t* data, size_t size, PngStream& out, bool alphaOnly = false) {
   if (size < 8 + 25 || !hasPngSignature(data, size)) return false;
   // IHDR first, 13 bytes: 8-bit, grey (0) / RGB (2) / palette (3) / grey+alpha (4) / RGBA (6), methods 0, not
   // interlaced.
@@ -245,6 +269,7 @@ bool decodePngFast(const uint8_t* data, size_t size, RawImage& out) {
     i += size_t(len) + 12;
   }
   if (!ended || idatCount == 0) return false;
+  if (alphaOnly && indexed && trnsCount == 0) return false;  // no alpha: nothing inflated for nothing
   const uint8_t* z = idatCount == 1 ? single : joined.data();
   const size_t zLen = idatCount == 1 ? singleLen : joined.size();
   const size_t rb = size_t(w) * streamChannels, rawLen = (rb + 1) * h;
@@ -261,6 +286,79 @@ bool decodePngFast(const uint8_t* data, size_t size, RawImage& out) {
       produced != rawLen)
     return false;
   joined = std::vector<uint8_t>();  // the compressed copy is not needed any more
+  out.w = w;
+  out.h = h;
+  out.streamChannels = streamChannels;
+  out.indexed = indexed;
+  out.trnsCount = trnsCount;
+  std::memcpy(out.palette, palette, sizeof palette);
+  out.rb = rb;
+  out.buf = std::move(buf);
+  return true;
+}
+
+// The alpha bytes (offset kBpp - 1 of each kBpp-byte pixel) of the inflated rows unfiltered on their own — a PNG
+// filter predicts each byte from the same channel's bytes to the left, above and above-left, so one channel needs no
+// other — into `out` (w bytes a row; rows bottom-up when flipRows). False on a filter type above 4.
+template <int kBpp>
+bool unfilterAlpha(const uint8_t* buf, size_t rb, uint32_t w, uint32_t h, bool flipRows, uint8_t* out) {
+  const uint8_t* prior = nullptr;  // the previous row's alphas (null: zeros)
+  for (uint32_t y = 0; y < h; ++y) {
+    const uint8_t* in = buf + size_t(y) * (rb + 1);
+    const int filter = in[0];
+    const uint8_t* src = in + 1 + (kBpp - 1);
+    uint8_t* row = out + size_t(flipRows ? h - 1 - y : y) * w;
+    switch (filter) {
+      case 0:
+        for (uint32_t x = 0; x < w; ++x) row[x] = src[size_t(x) * kBpp];
+        break;
+      case 1: {
+        uint8_t a = 0;
+        for (uint32_t x = 0; x < w; ++x) row[x] = a = uint8_t(src[size_t(x) * kBpp] + a);
+        break;
+      }
+      case 2:
+        if (prior) {
+          for (uint32_t x = 0; x < w; ++x) row[x] = uint8_t(src[size_t(x) * kBpp] + prior[x]);
+        } else {
+          for (uint32_t x = 0; x < w; ++x) row[x] = src[size_t(x) * kBpp];
+        }
+        break;
+      case 3: {
+        int a = 0;
+        for (uint32_t x = 0; x < w; ++x) {
+          const int b = prior ? prior[x] : 0;
+          row[x] = uint8_t(a = uint8_t(src[size_t(x) * kBpp] + ((a + b) >> 1)));
+        }
+        break;
+      }
+      case 4: {
+        int a = 0, c = 0;
+        for (uint32_t x = 0; x < w; ++x) {
+          const int b = prior ? prior[x] : 0;
+          row[x] = uint8_t(a = uint8_t(src[size_t(x) * kBpp] + paethSelect(a, b, c)));
+          c = b;
+        }
+        break;
+      }
+      default:
+        return false;
+    }
+    prior = row;
+  }
+  return true;
+}
+
+}  // namespace
+
+bool decodePngFast(const uint8_t* data, size_t size, RawImage& out) {
+  PngStream s;
+  if (!inflatePng(data, size, s)) return false;
+  const uint32_t w = s.w, h = s.h, streamChannels = s.streamChannels;
+  const bool indexed = s.indexed;
+  const int trnsCount = s.trnsCount;
+  const auto& palette = s.palette;
+  std::unique_ptr<uint8_t, decltype(&std::free)> buf = std::move(s.buf);
   if (!pngUnfilter(buf.get(), w, h, streamChannels, true)) return false;
   uint32_t channels = streamChannels;
   if (indexed) {
@@ -286,6 +384,38 @@ bool decodePngFast(const uint8_t* data, size_t size, RawImage& out) {
   out.sixteenBit = false;
   out.samples =
       std::shared_ptr<const void>(buf.release(), [](const void* p) { std::free(const_cast<void*>(p)); });
+  return true;
+}
+
+bool decodePngAlphaFast(const uint8_t* data, size_t size, bool flipRows, std::vector<uint8_t>& alpha,
+                        uint32_t& width, uint32_t& height, uint32_t& channels) {
+  // Only the colour types with an alpha channel (before inflating anything): grey+alpha, RGBA, palette (with tRNS).
+  if (size < 8 + 25 || !hasPngSignature(data, size)) return false;
+  const uint8_t colour = data[25];
+  if (colour != 3 && colour != 4 && colour != 6) return false;
+  PngStream s;
+  if (!inflatePng(data, size, s, true)) return false;
+  const size_t n = size_t(s.w) * s.h;
+  std::vector<uint8_t> a(n);
+  if (s.indexed) {
+    if (!pngUnfilter(s.buf.get(), s.w, s.h, 1, false)) return false;
+    const uint8_t* idx = s.buf.get();
+    for (uint32_t y = 0; y < s.h; ++y) {
+      const uint8_t* in = idx + size_t(y) * s.w;
+      uint8_t* row = a.data() + size_t(flipRows ? s.h - 1 - y : y) * s.w;
+      for (uint32_t x = 0; x < s.w; ++x) row[x] = s.palette[in[x]][3];
+    }
+    channels = 4;
+  } else if (s.streamChannels == 4) {
+    if (!unfilterAlpha<4>(s.buf.get(), s.rb, s.w, s.h, flipRows, a.data())) return false;
+    channels = 4;
+  } else {
+    if (!unfilterAlpha<2>(s.buf.get(), s.rb, s.w, s.h, flipRows, a.data())) return false;
+    channels = 2;
+  }
+  alpha = std::move(a);
+  width = s.w;
+  height = s.h;
   return true;
 }
 

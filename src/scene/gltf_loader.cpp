@@ -473,13 +473,17 @@ Status GltfLoader::loadMaterials() {
       size_t(0), order.size(),
       [&](size_t k) {
         ImagePlan& p = plans_[order[k]];
-        if (!p.color && p.alphaFactors.size() == 1) {
-          // The alpha alone (`somm bake`): when the image is a PNG with an alpha channel, only that is decoded.
+        if (!p.color) {
+          // The alpha alone (`somm bake`): when the image is a PNG with an alpha channel, only that is decoded (one
+          // texture per factor from the same bytes, as toAlphaTexture makes them).
           const Result<ImageHeader> header = checkImage(p.data, p.size, opts_.limits, nullptr);
           if (header.ok()) {
             if (auto a = decodeAlphaFast(p.data, p.size, *header, AlphaChannel::AlphaOrOne, p.alphaFactors[0],
                                          false)) {
-              p.alpha.push_back(std::make_shared<const AlphaTexture>(std::move(*a)));
+              for (size_t f = 1; f < p.alphaFactors.size(); ++f)
+                p.alpha.push_back(std::make_shared<const AlphaTexture>(
+                    AlphaTexture::fromUInt8(a->width, a->height, a->alpha8, p.alphaFactors[f])));
+              p.alpha.insert(p.alpha.begin(), std::make_shared<const AlphaTexture>(std::move(*a)));
               return;
             }
           }

@@ -36,16 +36,17 @@ std::vector<Bytes> pngFiles(const std::string& dir) {
   return files;
 }
 
+// "bundled": data/; otherwise $SOMM_FOLIAGE_DIR or ../shared/assets/foliage.
+std::string pngDir(const char* which) {
+  if (std::string(which) == "bundled") return SOMM_DATA_DIR;
+  const char* env = std::getenv("SOMM_FOLIAGE_DIR");
+  return env && *env ? env : SOMM_FOLIAGE_DIR;
+}
+
 // Decodes every file with both decoders `rounds` times, alternating; counters: seconds of each (best round), the
 // ratio, decoded MB, and how many files took the fast path (the others are stb's in both columns).
 void BM_DecodePng(benchmark::State& state, const char* which) {
-  std::string dir;
-  if (std::string(which) == "bundled") {
-    dir = SOMM_DATA_DIR;
-  } else {
-    const char* env = std::getenv("SOMM_FOLIAGE_DIR");
-    dir = env && *env ? env : SOMM_FOLIAGE_DIR;
-  }
+  const std::string dir = pngDir(which);
   const std::vector<Bytes> files = pngFiles(dir);
   if (files.empty()) {
     state.SkipWithError("no PNG files (../shared/assets/foliage absent?)");
@@ -108,13 +109,7 @@ void BM_DecodePng(benchmark::State& state, const char* which) {
 // bytes unfiltered) against the whole decode (decodeImage, fast path included) + toAlphaTexture, the baseline, in the
 // same run; each result checked equal to the baseline's texture once before timing.
 void BM_DecodePngAlpha(benchmark::State& state, const char* which) {
-  std::string dir;
-  if (std::string(which) == "bundled") {
-    dir = SOMM_DATA_DIR;
-  } else {
-    const char* env = std::getenv("SOMM_FOLIAGE_DIR");
-    dir = env && *env ? env : SOMM_FOLIAGE_DIR;
-  }
+  const std::string dir = pngDir(which);
   using somm::detail::AlphaChannel;
   std::vector<Bytes> files;
   std::vector<somm::detail::ImageHeader> headers;

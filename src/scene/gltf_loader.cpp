@@ -277,11 +277,11 @@ class GltfLoader {
   // conversions to the materials. A decode error is reported as at the first material that takes the image: before a
   // later material's error, as a serial loader would.
   struct ImagePlan {
-    int index = -1;
     size_t firstMaterial = 0;
     std::string context;  // "material 'NAME': texture WHERE" for errors
     const uint8_t* data = nullptr;
     size_t size = 0;
+    ImageHeader header;          // checkImage's (checked and charged by requestImage)
     std::vector<uint8_t> owned;  // an external file tinygltf did not read (read by us instead)
     bool color = false;
     std::vector<float> alphaFactors;  // one alpha texture per distinct factor
@@ -397,7 +397,6 @@ Status GltfLoader::requestImage(int index, const std::string& matName, bool colo
       return fail(ErrorCode::CorruptFile, ctx + ": image " + std::to_string(index) + " does not exist");
     const tinygltf::Image& im = model_.images[size_t(index)];
     ImagePlan plan;
-    plan.index = index;
     plan.firstMaterial = material;
     std::string where;
     if (im.bufferView >= 0) {
@@ -439,8 +438,9 @@ Status GltfLoader::requestImage(int index, const std::string& matName, bool colo
     if (!color && !alpha) return Ok{};
     plan.context = ctx + ": texture " + where;
     // The header's checks and the decoded-bytes charge, in the order the materials reach the images.
-    if (auto h = checkImage(plan.data, plan.size, opts_.limits, &decoded_); !h.ok())
-      return fail(h.error().code, plan.context + ": " + h.error().message);
+    auto h = checkImage(plan.data, plan.size, opts_.limits, &decoded_);
+    if (!h.ok()) return fail(h.error().code, plan.context + ": " + h.error().message);
+    plan.header = *h;
     known = planOf_.emplace(index, plans_.size()).first;
     plans_.push_back(std::move(plan));
   }
@@ -476,16 +476,13 @@ Status GltfLoader::loadMaterials() {
         if (!p.color) {
           // The alpha alone (`somm bake`): when the image is a PNG with an alpha channel, only that is decoded (one
           // texture per factor from the same bytes, as toAlphaTexture makes them).
-          const Result<ImageHeader> header = checkImage(p.data, p.size, opts_.limits, nullptr);
-          if (header.ok()) {
-            if (auto a = decodeAlphaFast(p.data, p.size, *header, AlphaChannel::AlphaOrOne, p.alphaFactors[0],
-                                         false)) {
-              for (size_t f = 1; f < p.alphaFactors.size(); ++f)
-                p.alpha.push_back(std::make_shared<const AlphaTexture>(
-                    AlphaTexture::fromUInt8(a->width, a->height, a->alpha8, p.alphaFactors[f])));
-              p.alpha.insert(p.alpha.begin(), std::make_shared<const AlphaTexture>(std::move(*a)));
-              return;
-            }
+          if (auto a = decodeAlphaFast(p.data, p.size, p.header, AlphaChannel::AlphaOrOne, p.alphaFactors[0],
+                                       false)) {
+            for (size_t f = 1; f < p.alphaFactors.size(); ++f)
+              p.alpha.push_back(std::make_shared<const AlphaTexture>(
+                  AlphaTexture::fromUInt8(a->width, a->height, a->alpha8, p.alphaFactors[f])));
+            p.alpha.insert(p.alpha.begin(), std::make_shared<const AlphaTexture>(std::move(*a)));
+            return;
           }
         }
         Result<RawImage> raw = decodeImage(p.data, p.size, opts_.limits, nullptr);  // charged by requestImage

@@ -51,10 +51,9 @@ Result<ImageHeader> checkImage(const uint8_t* data, size_t size, const Limits& l
 // fastPng false: stb_image for every PNG too (the fast path's oracle in tests and fuzzing).
 Result<RawImage> decodeImage(const uint8_t* data, size_t size, const Limits& limits = defaultLimits(),
                              uint64_t* decodedBytes = nullptr, bool fastPng = true);
-// Reads (a regular file, at most limits.imageFileBytes) and decodes an image file. The error message is the
-// reason only.
 // Reads an image file's bytes (a regular file, at most limits.imageFileBytes). The error message is the reason only.
 Result<std::vector<uint8_t>> readImageBytes(const std::string& path, const Limits& limits = defaultLimits());
+// Reads (as readImageBytes) and decodes an image file. The error message is the reason only.
 Result<RawImage> readImageFile(const std::string& path, const Limits& limits = defaultLimits(),
                                uint64_t* decodedBytes = nullptr);
 

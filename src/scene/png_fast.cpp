@@ -18,20 +18,14 @@ namespace somm::detail {
 
 namespace {
 
-// The Paeth predictor (PNG spec 9.4): a left, b up, c up-left; ties prefer a, then b.
+// The Paeth predictor (PNG spec 9.4): a left, b up, c up-left; ties prefer a, then b. In libpng's form (pa = |b − c|,
+// pb = |a − c|, pc = |a + b − 2c|, then two selects), which compilers make branch-free.
 inline uint8_t paeth(int a, int b, int c) {
-  const int pa = std::abs(b - c), pb = std::abs(a - c), pc = std::abs(a + b - 2 * c);
-  return uint8_t(pa <= pb && pa <= pc ? a : pb <= pc ? b : c);
-}
-
-// The same predictor in libpng's form (pa = |b − c|, pb = |a − c|, pc = |a + b − 2c|, then two selects): compilers
-// make it branch-free.
-inline int paethSelect(int a, int b, int c) {
   const int p = b - c, q = a - c;
   int pa = std::abs(p);
   const int pb = std::abs(q), pc = std::abs(p + q);
   if (pb < pa) pa = pb, a = b;
-  return pc < pa ? c : a;
+  return uint8_t(pc < pa ? c : a);
 }
 
 // One row unfiltered in place: `row` holds the filtered bytes (rb of them, pixels of kBpp bytes), `prior` the
@@ -336,7 +330,7 @@ bool unfilterAlpha(const uint8_t* buf, size_t rb, uint32_t w, uint32_t h, bool f
         int a = 0, c = 0;
         for (uint32_t x = 0; x < w; ++x) {
           const int b = prior ? prior[x] : 0;
-          row[x] = uint8_t(a = uint8_t(src[size_t(x) * kBpp] + paethSelect(a, b, c)));
+          row[x] = uint8_t(a = uint8_t(src[size_t(x) * kBpp] + paeth(a, b, c)));
           c = b;
         }
         break;

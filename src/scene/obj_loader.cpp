@@ -46,8 +46,48 @@ namespace {
 class IndexScan {
  public:
   explicit IndexScan(bool strict = false) : strict_(strict) {}
-  // Scans bytes [p, p + n); false at the first out-of-range index (line() and token() tell which).
-  bool feed(const char* p, size_t n) {
+  // Scans bytes [p, p + n); false at the first out-of-range index (line() and token() tell which). Strict: the
+  // numbers of position (v) lines whose numbers are surely finite, and of every normal (vn) line, are dropped from
+  // the bytes (compacted in place: `kept` is their new length), see elide().
+  bool feed(char* p, size_t n, size_t& kept) {
+    drops_.clear();
+    if (faceHead_ == faceCounts_.size()) faceIndices_.clear(), faceCounts_.clear(), faceHead_ = faceAt_ = 0;
+    if (!scan(p, n)) return false;
+    kept = n;
+    if (drops_.empty()) return true;
+    size_t w = drops_[0].first;
+    for (size_t k = 0; k < drops_.size(); ++k) {
+      const size_t from = drops_[k].second, to = k + 1 < drops_.size() ? drops_[k + 1].first : n;
+      std::memmove(p + w, p + from, to - from);
+      w += to - from;
+    }
+    kept = w;
+    return true;
+  }
+  // The end of the file: false when it ends inside an out-of-range index.
+  bool finish() {
+    if (strict_ && phase_ == kFace && lead_ == 'f') {
+      strictFace(face_, '\n');
+      irregular_ = irregular_ || face_.irregular;
+    }
+    if (phase_ == kSkip && word_ != 0) usemtlWord('\n');
+    return phase_ != kFace || finishNumber();
+  }
+  size_t line() const { return line_; }
+  std::string token() const { return std::string(token_, tokenLength_); }
+  bool irregular() const { return irregular_; }
+  // The next face an f line handed to the parser as "f 0" stands for (takeFace), in file order: its vertices and
+  // their count; false when there is none (the parser met an "f 0" of the file: irregular anyway).
+  bool nextFace(const tinyobj::index_t*& ix, int& count) {
+    if (faceHead_ == faceCounts_.size()) return false;
+    ix = faceIndices_.data() + faceAt_;
+    count = int(faceCounts_[faceHead_]);
+    faceAt_ += faceCounts_[faceHead_++];
+    return true;
+  }
+
+ private:
+  bool scan(char* p, size_t n) {
     for (size_t i = 0; i < n; ++i) {
       const char c = p[i];
       switch (phase_) {
@@ -69,6 +109,10 @@ class IndexScan {
             phase_ = kFace;
             if (strict_ && lead_ != 'f') irregular_ = true;
             face_ = FaceState{};
+            if (strict_ && lead_ == 'f') {
+              const size_t e = takeFace(p, i + 1, n);
+              if (e != 0) phase_ = kLead, i = e - 1;  // on at the line's end (LF or CR)
+            }
           } else {
             phase_ = kSkip;
           }
@@ -114,8 +158,10 @@ class IndexScan {
         case kSkip:
           if (word_ != 0) usemtlWord(c);
           if (vw_ != 0) {  // "vw" then a space or tab: a skin weight line (LoadObj may fail on it)
-            if (vw_ == 2 && (c == ' ' || c == '\t')) irregular_ = true;
-            vw_ = vw_ == 1 && c == 'w' ? 2u : 0u;
+            const bool space = c == ' ' || c == '\t';
+            if (vw_ == 2 && space) irregular_ = true;
+            if (space && vw_ != 2) elide(p, i + 1, n, vw_ == 3);
+            vw_ = vw_ == 1 && c == 'w' ? 2u : vw_ == 1 && c == 'n' ? 3u : 0u;
           }
           if (c == '\n' || c == '\r') {
             line_ += c == '\n';
@@ -137,20 +183,155 @@ class IndexScan {
     }
     return true;
   }
-  // The end of the file: false when it ends inside an out-of-range index.
-  bool finish() {
-    if (strict_ && phase_ == kFace && lead_ == 'f') {
-      strictFace(face_, '\n');
-      irregular_ = irregular_ || face_.irregular;
+  // An f line whose body, bytes [from, end of line), lies in these bytes and is 1+ tokens of the strict forms (each
+  // field an optional '-' and 1-9 digits, not all 0 — no overflow, and the values tinyobjloader's atoi gives) is
+  // read here: its vertices are queued for nextFace and the body becomes "0" (the parser reads "f 0", one vertex of
+  // index 0, which no strict face has). Returns the line end's position, or 0 when the line is left to the
+  // character scan (and the parser): another form, or a line that goes on beyond these bytes.
+  size_t takeFace(char* p, size_t from, size_t n) {
+    const char* b = p + from;
+    const char* nl = static_cast<const char*>(std::memchr(b, '\n', n - from));
+    const char* e = nl ? nl : p + n;
+    if (const char* cr = static_cast<const char*>(std::memchr(b, '\r', size_t(e - b)))) e = cr;
+    if (e == p + n) return 0;
+    const size_t first = faceIndices_.size();
+    uint32_t count = 0;
+    const char* q = b;
+    for (;;) {
+      while (q != e && (*q == ' ' || *q == '\t')) ++q;
+      if (q == e) break;
+      int32_t f[3] = {0, 0, 0};
+      for (int field = 0;; ++field) {
+        const bool negative = *q == '-';
+        q += negative;
+        const char* d = q;
+        int32_t v = 0;
+        bool nonzero = false;
+        for (; q != e && *q >= '0' && *q <= '9'; ++q) {
+          if (q - d < 9) v = v * 10 + (*q - '0');  // more digits: left to the character scan below
+          nonzero = nonzero || *q != '0';
+        }
+        if (q == d) {  // an empty field: only the middle one of v//n
+          if (negative || field != 1 || q == e || *q != '/') return faceIndices_.resize(first), 0;
+        } else if (q - d > 9 || !nonzero) {
+          return faceIndices_.resize(first), 0;
+        }
+        f[field] = negative ? -v : v;
+        if (q == e || *q != '/') break;
+        if (field == 2) return faceIndices_.resize(first), 0;
+        ++q;
+      }
+      if (q != e && *q != ' ' && *q != '\t') return faceIndices_.resize(first), 0;
+      tinyobj::index_t ix;
+      ix.vertex_index = f[0];
+      ix.texcoord_index = f[1];
+      ix.normal_index = f[2];
+      faceIndices_.push_back(ix);
+      ++count;
     }
-    if (phase_ == kSkip && word_ != 0) usemtlWord('\n');
-    return phase_ != kFace || finishNumber();
+    if (count == 0) return 0;
+    faceCounts_.push_back(count);
+    p[from] = '0';
+    if (size_t(e - p) > from + 1) drops_.emplace_back(from + 1, size_t(e - p));
+    return size_t(e - p);
   }
-  size_t line() const { return line_; }
-  std::string token() const { return std::string(token_, tokenLength_); }
-  bool irregular() const { return irregular_; }
-
- private:
+  // A position (v) or normal (vn) line's numbers, bytes [from, end of line) (strict only): tinyobjloader's callback
+  // parser need not read them. A normal is only counted (UvParse), so its numbers go; a position is read for the
+  // finiteness of x, y, z (nonFinite), so its numbers go only when they are surely finite — every token of the
+  // form [+-](digits[.digits] | .digits)[(e|E)(+digits | -digits)], at most 15 integer digits, a positive exponent
+  // of one digit and a negative one of at most 3 (below 10^24: finite as float); the parser then reads "v " as
+  // (0, 0, 0), finite too. Not when the line ends beyond these bytes (it stays whole). The vertex counts (and so
+  // every index) are the same.
+  void elide(const char* p, size_t from, size_t n, bool normal) {
+    const char* b = p + from;
+    const char* nl = static_cast<const char*>(std::memchr(b, '\n', n - from));
+    const char* e = nl ? nl : p + n;
+    if (const char* cr = static_cast<const char*>(std::memchr(b, '\r', size_t(e - b)))) e = cr;
+    if (e == p + n || e == b || !(normal || finiteNumbers(b, e))) return;
+    drops_.emplace_back(from, size_t(e - p));
+  }
+  static bool finiteNumbers(const char* p, const char* end) {
+    // Most files: digits, '.', '-', '+', spaces and tabs only, no run of more than 15 digits — whatever the parser
+    // makes of such tokens is below 10^15 (no exponent). Otherwise the token grammar below.
+    unsigned run = 0;
+    for (const char* q = p; q != end; ++q) {
+      const char c = *q;
+      if (c >= '0' && c <= '9') {
+        if (++run > 15) return finiteTokens(p, end);
+      } else if (c == '.' || c == ' ' || c == '-' || c == '\t' || c == '+') {
+        run = 0;
+      } else {
+        return finiteTokens(p, end);
+      }
+    }
+    return true;
+  }
+  static bool finiteTokens(const char* p, const char* end) {
+    enum { kGap, kSign, kInt, kDot, kFrac, kExp, kExpSign, kExpDigits };
+    int state = kGap;
+    unsigned count = 0;  // integer digits / exponent digits so far
+    bool negativeExp = false;
+    for (; p != end; ++p) {
+      const char c = *p;
+      const bool digit = c >= '0' && c <= '9';
+      if (c == ' ' || c == '\t') {
+        if (state == kSign || state == kDot || state == kExp || state == kExpSign) return false;
+        state = kGap;
+        continue;
+      }
+      switch (state) {
+        case kGap:
+        case kSign:
+          if (digit) {
+            state = kInt, count = 1;
+          } else if (c == '.') {
+            state = kDot;
+          } else if (state == kGap && (c == '+' || c == '-')) {
+            state = kSign;
+          } else {
+            return false;
+          }
+          break;
+        case kInt:
+          if (digit) {
+            if (++count > 15) return false;
+          } else if (c == '.') {
+            state = kFrac;
+          } else if (c == 'e' || c == 'E') {
+            state = kExp;
+          } else {
+            return false;
+          }
+          break;
+        case kDot:  // a leading '.': a digit must follow
+          if (!digit) return false;
+          state = kFrac;
+          break;
+        case kFrac:
+          if (c == 'e' || c == 'E') {
+            state = kExp;
+          } else if (!digit) {
+            return false;
+          }
+          break;
+        case kExp:
+        case kExpSign:
+          if (digit) {
+            negativeExp = state == kExpSign && negativeExp;
+            state = kExpDigits, count = 1;
+          } else if (state == kExp && (c == '+' || c == '-')) {
+            state = kExpSign, negativeExp = c == '-';
+          } else {
+            return false;
+          }
+          break;
+        default:  // kExpDigits
+          if (!digit || ++count > (negativeExp ? 3u : 1u)) return false;
+          break;
+      }
+    }
+    return !(state == kSign || state == kDot || state == kExp || state == kExpSign);
+  }
   enum Phase { kLead, kCandidate, kFace, kSkip };
   // The strict check of an f line: the token being read and its field (number `slashes`: v, t, n).
   struct FaceState {
@@ -212,13 +393,19 @@ class IndexScan {
   Phase phase_ = kLead;
   char lead_ = 0;
   uint32_t word_ = 0;
-  uint32_t vw_ = 0;  // a line whose first character was 'v' (strict): 1, then 2 after "vw" (0: neither)
+  uint32_t vw_ =
+      0;  // a line whose first character was 'v' (strict): 1, then 2 after "vw", 3 after "vn" (0: neither)
   FaceState face_;
   size_t line_ = 1;
   bool inNumber_ = false;
   uint64_t value_ = 0;
   char token_[40] = {};  // the digits of the last number (the first 40)
   uint32_t tokenLength_ = 0;
+  std::vector<std::pair<size_t, size_t>> drops_;  // byte ranges feed() removes (elide, takeFace)
+  // The faces takeFace read and the parser has not reached yet: their vertices, and per face its count.
+  std::vector<tinyobj::index_t> faceIndices_;
+  std::vector<uint32_t> faceCounts_;
+  size_t faceHead_ = 0, faceAt_ = 0;  // the next face to hand out and its first vertex
 };
 
 // The OBJ file as a stream for the parser, read in 64 KiB chunks from the open file (at most `size` bytes: a
@@ -233,6 +420,7 @@ class ObjFileBuf : public std::streambuf {
   bool readFailed() const { return readFailed_; }
   bool badIndex() const { return badIndex_; }
   const IndexScan& scan() const { return scan_; }
+  bool nextFace(const tinyobj::index_t*& ix, int& count) { return scan_.nextFace(ix, count); }
   // Ends the stream after the bytes already handed out (the UV-only load gives up on an irregular file).
   void stop() {
     stopped_ = true;
@@ -256,11 +444,12 @@ class ObjFileBuf : public std::streambuf {
       return traits_type::eof();
     }
     left_ -= uint64_t(r);
-    if (!scan_.feed(buf_, size_t(r))) {
+    size_t kept = 0;
+    if (!scan_.feed(buf_, size_t(r), kept)) {
       badIndex_ = true;
       return traits_type::eof();
     }
-    setg(buf_, buf_, buf_ + r);
+    setg(buf_, buf_, buf_ + kept);
     return traits_type::to_int_type(buf_[0]);
   }
 
@@ -883,6 +1072,10 @@ struct UvParse {
   }
   void face(const tinyobj::index_t* ix, int n) {
     if (irregular) return;
+    // "f 0": a face the scan read (IndexScan::takeFace).
+    if (n == 1 && ix[0].vertex_index == 0 && ix[0].texcoord_index == 0 && ix[0].normal_index == 0 &&
+        !file->nextFace(ix, n))
+      return giveUp();
     if (n < 3) return giveUp();  // LoadObj warns ("Degenerated face") and skips it
     int mat = material;
     if (mat >= int(mats.size())) mat = -1;

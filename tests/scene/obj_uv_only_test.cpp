@@ -120,6 +120,16 @@ std::vector<Case> corpus() {
        "mtllib m.mtl\rv 0 0 0\rv 1 0 0\rv 1 1 0\rvt 0 0\rvt 1 0\rvt 1 1\rusemtl leaf\r"
        "f 1/1 2/2 3/3\rg x\rf 1 2 3"},
       {"no final newline", v + "usemtl leaf\nf 1/1 2/2 3/3"},
+      // Position numbers the scan drops (surely finite) or leaves to the parser (an exponent above 9, a run of
+      // more than 15 digits, other text): the same vertices and non-finite counts either way.
+      {"position number forms",
+       v + "v 1e5 -2.5E-3 .5\nv\t+1 -.25 3.\nv 1e-300 1E+9 -0.0 1\nv 1e10 1234567890123456 0\nv 1e999 0 "
+           "-1e99\n"
+           "v 0x10 1 2\nv\nv 1.5\nusemtl leaf\nf 6/1 7/2 8/3\nf 9 10 11\nf -1 -2 -3\nf 12/1 11/2 6/3\n"},
+      // Face forms the scan reads itself, and forms it leaves to the parser (more than 9 digits in a field).
+      {"face forms", v + "usemtl leaf\nf 1/1/1 2//1 3/3\tf_junk_is_not_here\n", false},
+      {"face field lengths", v + "usemtl leaf\nf 0000000001/1 2/0000000002 3\nf 000000001/00001 "
+                                 "-1/-1/-1\t-2//-1  \nf -0005 -0004 -0003\n"},
       // Irregular: the full load decides (warnings, errors, elements the callback parser reads differently).
       {"unknown material", v + "usemtl nothere\nf 1/1 2/2 3/3\n", false},
       {"degenerate face", v + "usemtl leaf\nf 1/1 2/2\nf 1/1 2/2 3/3\n", false},
@@ -189,6 +199,63 @@ TEST(ObjUvOnly, NonFinitePositionsStillWarn) {
   ASSERT_EQ(r->geometries.size(), 1u);
   EXPECT_EQ(r->geometries[0].indices, (std::vector<uint32_t>{0, 1, 2, 3, 4, 5}));
   EXPECT_TRUE(r->geometries[0].positions.empty());
+}
+
+// Lines across the 64 KiB chunks the file is read in: every position, normal and face line form at every offset
+// around a chunk's end (the scan drops numbers and reads faces only within a chunk; a line that goes on beyond it
+// is left whole to the parser), with LF and CR LF line ends.
+TEST(ObjUvOnly, LinesAcrossReadChunks) {
+  TempDir dir;
+  scenetest::writePng8(dir.file("leaf.png"), 2, 2, 4,
+                       {255, 0, 0, 255, 0, 255, 0, 0, 0, 0, 255, 128, 9, 9, 9, 64});
+  writeFile(dir.file("m.mtl"), kMtl);
+  for (const char* eol : {"\n", "\r\n"}) {
+    SCOPED_TRACE(eol[0] == '\r' ? "CR LF" : "LF");
+    std::string text = std::string("mtllib m.mtl") + eol + "usemtl leaf" + eol;
+    uint32_t positions = 0, uvs = 0, faces = 0;
+    for (uint32_t k = 0; text.size() < 300000; ++k) {
+      // Lines of many lengths, so that chunk ends fall at every place in them.
+      const std::string pad(k % 23, '0');
+      text += "v " + std::to_string(k % 97) + "." + pad + "5 -" + std::to_string(k % 13) + ".25 1e-" +
+              std::to_string(k % 4) + eol;
+      text += "vt 0." + std::to_string(k % 89) + " 0." + std::to_string(k % 71) + eol;
+      text += std::string("vn 0 ") + (k % 3 ? "1" : "1.0000000000000000001") + " 0" + eol;
+      ++positions, ++uvs;
+      if (positions >= 3) {
+        const std::string a = std::to_string(positions), b = std::to_string(positions - 1),
+                          c = std::to_string(positions - 2);
+        switch (k % 4) {
+          case 0:
+            text += "f " + a + "/" + std::to_string(uvs) + " " + b + "/" + std::to_string(uvs - 1) + " " + c +
+                    "/1" + eol;
+            break;
+          case 1:
+            text += "f -1/-1/-1 -2/-2/-2 -3/-3/-1" + std::string(k % 7, ' ') + eol;
+            break;
+          case 2:
+            text += "f\t" + a + "//1\t" + b + "//1 " + pad + c + "//1 " + a + "//2" + eol;
+            break;
+          default:
+            text += "f " + a + " " + b + " " + c + eol;
+            break;
+        }
+        ++faces;
+      }
+    }
+    const std::string path = dir.file("chunks.obj");
+    writeFile(path, text);
+    somm::LoadOptions uv;
+    uv.loadPositions = false;
+    auto r = somm::loadScene(path, uv);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    ASSERT_EQ(r->geometries.size(), 1u);
+    EXPECT_GT(r->geometries[0].indices.size(), size_t(3) * faces);  // quads fan into two triangles
+    EXPECT_EQ(expectSameLoad(path), 1);
+    bool irregular = false;
+    uint64_t nonFinite = 0;
+    EXPECT_TRUE(somm::detail::loadObjUvOnly(path, somm::LoadOptions{}, irregular, nonFinite).ok());
+    EXPECT_FALSE(irregular);
+  }
 }
 
 TEST(ObjUvOnly, SameAsFullLoadOnBundledScene) {

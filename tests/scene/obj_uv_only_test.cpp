@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -126,6 +127,14 @@ std::vector<Case> corpus() {
        v + "v 1e5 -2.5E-3 .5\nv\t+1 -.25 3.\nv 1e-300 1E+9 -0.0 1\nv 1e10 1234567890123456 0\nv 1e999 0 "
            "-1e99\n"
            "v 0x10 1 2\nv\nv 1.5\nusemtl leaf\nf 6/1 7/2 8/3\nf 9 10 11\nf -1 -2 -3\nf 12/1 11/2 6/3\n"},
+      // Texture coordinate forms (compared bit for bit).
+      {"texture coordinate forms",
+       v + "vt 0.1 0.7\nvt -0.25 1.\nvt 0.1234567 0.9999999 0.5 junk\nvt 0.12345678 0.3\nvt "
+           "123456789012345.5 -0\n"
+           "vt 1234567890123456 0\nvt 1e-3 0.5\nvt\t.5 -.5\nvt +0.5 0.5\nvt 0.5abc 0\nvt 0.3\nvt\nvt \n"
+           "vt 0.33333 0.66667\nusemtl leaf\nf 1/6 2/7 3/8\nf 1/9 2/10 3/11\nf 1/12 2/13 3/14\nf 1/15 2/16 "
+           "3/17\n"
+           "f 1/18 2/18 3/17\n"},
       // Face forms the scan reads itself, and forms it leaves to the parser (more than 9 digits in a field).
       {"face forms", v + "usemtl leaf\nf 1/1/1 2//1 3/3\tf_junk_is_not_here\n", false},
       {"face field lengths", v + "usemtl leaf\nf 0000000001/1 2/0000000002 3\nf 000000001/00001 "
@@ -256,6 +265,30 @@ TEST(ObjUvOnly, LinesAcrossReadChunks) {
     EXPECT_TRUE(somm::detail::loadObjUvOnly(path, somm::LoadOptions{}, irregular, nonFinite).ok());
     EXPECT_FALSE(irregular);
   }
+}
+
+// Texture coordinates: 30,000 random numbers of up to 15 integer and 8 fraction digits, bit for bit as the full load
+// reads them.
+TEST(ObjUvOnly, RandomTextureCoordinatesAsTheParserReadsThem) {
+  TempDir dir;
+  std::mt19937_64 rng(7);
+  auto number = [&] {
+    std::string t = rng() % 4 == 0 ? "-" : "";
+    const int intDigits = int(rng() % 16), fracDigits = int(rng() % 9);
+    t += intDigits == 0 ? "0" : std::to_string(1 + rng() % 9);
+    for (int k = 1; k < intDigits; ++k) t += char('0' + rng() % 10);
+    if (fracDigits > 0 || rng() % 8 == 0) t += '.';
+    for (int k = 0; k < fracDigits; ++k) t += char('0' + rng() % 10);
+    return t;
+  };
+  std::string text = "v 0 0 0\nv 1 0 0\nv 1 1 0\n";
+  const int n = 30000;
+  for (int k = 0; k < n; ++k) text += "vt " + number() + " " + number() + "\n";
+  for (int k = 1; k + 2 <= n; k += 3)
+    text += "f 1/" + std::to_string(k) + " 2/" + std::to_string(k + 1) + " 3/" + std::to_string(k + 2) + "\n";
+  const std::string path = dir.file("uv.obj");
+  writeFile(path, text);
+  EXPECT_EQ(expectSameLoad(path), 1);
 }
 
 TEST(ObjUvOnly, SameAsFullLoadOnBundledScene) {

@@ -607,6 +607,16 @@ class VertexMap {
       }
     }
   }
+  // The number stored for `key`, or null.
+  const uint32_t* find(uint64_t key) const {
+    if (slots_.empty()) return nullptr;
+    const size_t mask = slots_.size() - 1;
+    for (size_t i = hash(key) & mask;; i = (i + 1) & mask) {
+      const Slot& s = slots_[i];
+      if (s.key == key) return &s.value;
+      if (s.key == kFree) return nullptr;
+    }
+  }
 
  private:
   static constexpr uint64_t kFree = ~uint64_t(0);
@@ -1040,12 +1050,53 @@ struct UvParse {
   uint64_t nonFinite = 0;
   // Geometry::material of the geometries with the default material until the file's materials are all known.
   static constexpr uint32_t kDefault = ~0u;
-  // The current shape's geometries by material: the geometry and its (v, vt) → vertex map.
+  // The current shape's geometries by material: the geometry and the (v, vt) → vertex pairs of it that are not in
+  // pairSlots (`spilled`: it holds any).
   struct Open {
     uint32_t geometry = 0;
+    bool spilled = false;
     VertexMap remap;
   };
   std::map<int, Open> geometryOf;
+  // The (v, vt) → vertex numbering of the open geometries (the current shape's, numbered from shapeFirst on): per
+  // position the last pair that used it (its geometry, texture coordinate and vertex), the other pairs in their
+  // geometry's `remap` (a pair leaves the slot for its geometry's map when another one takes the slot). Most
+  // positions are used by one geometry with one texture coordinate: most lookups read one slot of a dense array,
+  // in the file's order, instead of probing a hash table (whose memory, faulted in as it grows, and scattered
+  // reads cost more than the parse on TORCS forza).
+  struct PairSlot {
+    uint32_t geometry = UINT32_MAX;
+    uint32_t vt = 0;
+    uint32_t vertex = 0;
+  };
+  // By position − slotBase (the positions read before the shape began; the pairs of earlier positions, which a shape
+  // seldom uses, go to their geometry's map).
+  std::vector<PairSlot> pairSlots;
+  uint32_t slotBase = 0;
+  uint32_t shapeFirst = 0;
+  std::vector<Open*> openGeometries;  // by geometry − shapeFirst
+
+  // The vertex of pair (v, t) in the open geometry `o`, or `next` when the pair is new (inserted = true).
+  std::pair<uint32_t, bool> number(Open& o, uint32_t v, uint32_t t, uint32_t next) {
+    const uint64_t key = (uint64_t(v) << 32) | t;
+    if (v < slotBase) {
+      o.spilled = true;
+      return o.remap.emplace(key, next);
+    }
+    const size_t i = v - slotBase;
+    if (i >= pairSlots.size()) pairSlots.resize(std::max(i + 1, 2 * pairSlots.size()));
+    PairSlot& s = pairSlots[i];
+    if (s.geometry == o.geometry && s.vt == t) return {s.vertex, false};
+    if (o.spilled)
+      if (const uint32_t* found = o.remap.find(key)) return {*found, false};
+    if (s.geometry != UINT32_MAX && s.geometry >= shapeFirst) {  // an open geometry's pair: to its map
+      Open& owner = *openGeometries[s.geometry - shapeFirst];
+      owner.remap.emplace((uint64_t(v) << 32) | s.vt, s.vertex);
+      owner.spilled = true;
+    }
+    s = PairSlot{o.geometry, t, next};
+    return {next, true};
+  }
 
   void giveUp() {
     irregular = true;
@@ -1063,6 +1114,10 @@ struct UvParse {
     }
     shapeHasFaces = false;
     geometryOf.clear();
+    openGeometries.clear();
+    shapeFirst = uint32_t(scene->geometries.size());
+    pairSlots.clear();
+    slotBase = uint32_t(badV.size());
   }
   // A raw index (non-zero: IndexScan's strict forms) resolved as LoadObj's fixIndex does against the `count`
   // elements read so far; -1 when it does not name one of them (LoadObj would warn or the loader fail).
@@ -1087,9 +1142,9 @@ struct UvParse {
       g.name = shapeName + "/" + (mat < 0 ? std::string("default") : mats[size_t(mat)].name);
       it->second.geometry = uint32_t(scene->geometries.size());
       scene->geometries.push_back(std::move(g));
+      openGeometries.push_back(&it->second);
     }
     Geometry& g = scene->geometries[it->second.geometry];
-    auto& map = it->second.remap;
     const uint64_t nv = badV.size(), nt = vt.size() / 2;
     uint32_t local[3] = {0, 0, 0};
     for (int k = 0; k < n; ++k) {
@@ -1098,8 +1153,8 @@ struct UvParse {
       if (v < 0 || (ix[k].texcoord_index != 0 && t < 0) ||
           (ix[k].normal_index != 0 && resolve(ix[k].normal_index, normals) < 0))
         return giveUp();
-      const uint64_t vkey = (uint64_t(uint32_t(v)) << 32) | uint32_t(int32_t(t));
-      const auto [vertex, inserted] = map.emplace(vkey, uint32_t(g.uvs.size() / 2));
+      const auto [vertex, inserted] =
+          number(it->second, uint32_t(v), uint32_t(int32_t(t)), uint32_t(g.uvs.size() / 2));
       if (inserted) {
         nonFinite += badV[size_t(v)];
         appendUv(g.uvs, t >= 0 ? &vt[2 * size_t(t)] : nullptr);

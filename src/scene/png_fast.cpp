@@ -244,7 +244,12 @@ bool inflatePng(const uint8_t* data, size_t size, PngStream& out, bool alphaOnly
           single = body;
           singleLen = size_t(len);
         } else {
-          if (idatCount == 1) joined.assign(single, single + singleLen);
+          if (idatCount == 1) {
+            // The IDAT data is less than the file: one allocation, no copies as it grows (untouched pages of the
+            // reservation cost nothing).
+            joined.reserve(size);
+            joined.assign(single, single + singleLen);
+          }
           joined.insert(joined.end(), body, body + len);
         }
         ++idatCount;

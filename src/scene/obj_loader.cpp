@@ -47,8 +47,9 @@ class IndexScan {
  public:
   explicit IndexScan(bool strict = false) : strict_(strict) {}
   // Scans bytes [p, p + n); false at the first out-of-range index (line() and token() tell which). Strict: the
-  // numbers of position (v) lines whose numbers are surely finite, and of every normal (vn) line, are dropped from
-  // the bytes (compacted in place: `kept` is their new length), see elide().
+  // numbers of position (v) lines whose numbers are surely finite and of every normal (vn) line (elide()), and the
+  // bodies of the strict face lines read here (takeFace(): "f 0" is left), are dropped from the bytes (compacted in
+  // place: `kept` is their new length).
   bool feed(char* p, size_t n, size_t& kept) {
     drops_.clear();
     if (faceHead_ == faceCounts_.size()) faceIndices_.clear(), faceCounts_.clear(), faceHead_ = faceAt_ = 0;
@@ -157,7 +158,8 @@ class IndexScan {
         }
         case kSkip:
           if (word_ != 0) usemtlWord(c);
-          if (vw_ != 0) {  // "vw" then a space or tab: a skin weight line (LoadObj may fail on it)
+          // "vw" then a space or tab: a skin weight line (LoadObj may fail on it); "v" / "vn" then one: elide().
+          if (vw_ != 0) {
             const bool space = c == ' ' || c == '\t';
             if (vw_ == 2 && space) irregular_ = true;
             if (space && vw_ != 2) elide(p, i + 1, n, vw_ == 3);

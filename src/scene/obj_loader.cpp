@@ -170,11 +170,7 @@ class IndexScan {
             phase_ = kLead;
           } else if (word_ == 0 &&
                      vw_ == 0) {  // nothing more to check on this line: on to its end (LF or CR)
-            const char* nl = static_cast<const char*>(std::memchr(p + i + 1, '\n', n - i - 1));
-            const char* end = nl ? nl : p + n;
-            const char* cr =
-                static_cast<const char*>(std::memchr(p + i + 1, '\r', size_t(end - (p + i + 1))));
-            if (cr) end = cr;
+            const char* end = lineEnd(p, i + 1, n);
             if (end == p + n) return true;
             i = size_t(end - p);
             line_ += *end == '\n';
@@ -185,6 +181,13 @@ class IndexScan {
     }
     return true;
   }
+  // The first LF or CR in bytes [from, n) (a line ends at either), or p + n.
+  static const char* lineEnd(const char* p, size_t from, size_t n) {
+    const char* nl = static_cast<const char*>(std::memchr(p + from, '\n', n - from));
+    const char* e = nl ? nl : p + n;
+    const char* cr = static_cast<const char*>(std::memchr(p + from, '\r', size_t(e - (p + from))));
+    return cr ? cr : e;
+  }
   // An f line whose body, bytes [from, end of line), lies in these bytes and is 1+ tokens of the strict forms (each
   // field an optional '-' and 1-9 digits, not all 0 — no overflow, and the values tinyobjloader's atoi gives) is
   // read here: its vertices are queued for nextFace and the body becomes "0" (the parser reads "f 0", one vertex of
@@ -192,9 +195,7 @@ class IndexScan {
   // character scan (and the parser): another form, or a line that goes on beyond these bytes.
   size_t takeFace(char* p, size_t from, size_t n) {
     const char* b = p + from;
-    const char* nl = static_cast<const char*>(std::memchr(b, '\n', n - from));
-    const char* e = nl ? nl : p + n;
-    if (const char* cr = static_cast<const char*>(std::memchr(b, '\r', size_t(e - b)))) e = cr;
+    const char* e = lineEnd(p, from, n);
     if (e == p + n) return 0;
     const size_t first = faceIndices_.size();
     uint32_t count = 0;
@@ -246,9 +247,7 @@ class IndexScan {
   // every index) are the same.
   void elide(const char* p, size_t from, size_t n, bool normal) {
     const char* b = p + from;
-    const char* nl = static_cast<const char*>(std::memchr(b, '\n', n - from));
-    const char* e = nl ? nl : p + n;
-    if (const char* cr = static_cast<const char*>(std::memchr(b, '\r', size_t(e - b)))) e = cr;
+    const char* e = lineEnd(p, from, n);
     if (e == p + n || e == b || !(normal || finiteNumbers(b, e))) return;
     drops_.emplace_back(from, size_t(e - p));
   }

@@ -52,7 +52,8 @@ class IndexScan {
   // place: `kept` is their new length).
   bool feed(char* p, size_t n, size_t& kept) {
     drops_.clear();
-    if (faceHead_ == faceCounts_.size()) faceIndices_.clear(), faceCounts_.clear(), faceHead_ = faceAt_ = 0;
+    compactQueues();
+    openAt_ = SIZE_MAX;  // a batch of faces never continues into another chunk
     if (!scan(p, n)) return false;
     kept = n;
     if (drops_.empty()) return true;
@@ -77,13 +78,32 @@ class IndexScan {
   size_t line() const { return line_; }
   std::string token() const { return std::string(token_, tokenLength_); }
   bool irregular() const { return irregular_; }
-  // The next face an f line handed to the parser as "f 0" stands for (takeFace), in file order: its vertices and
-  // their count; false when there is none (the parser met an "f 0" of the file: irregular anyway).
-  bool nextFace(const tinyobj::index_t*& ix, int& count) {
-    if (faceHead_ == faceCounts_.size()) return false;
-    ix = faceIndices_.data() + faceAt_;
-    count = int(faceCounts_[faceHead_]);
-    faceAt_ += faceCounts_[faceHead_++];
+  // What the parser's next face callback stands for (strict), in file order: a batch of `faces` faces read here
+  // (takeFace: the parser met "f 0"; nextFace hands them out), or with faces = 0 an f line the parser read itself,
+  // when `positions` position lines preceded it. False when there is none.
+  struct FaceCall {
+    uint32_t faces = 0;
+    uint64_t positions = 0;
+  };
+  bool nextCall(FaceCall& call) {
+    if (callHead_ == calls_.size()) return false;
+    call = calls_[callHead_++];
+    return true;
+  }
+  // The next face of a batch: its vertices, their count and the number of position lines before it.
+  bool nextFace(const tinyobj::index_t*& ix, int& count, uint64_t& positions) {
+    if (faceHead_ == faces_.size()) return false;
+    const QueuedFace& f = faces_[faceHead_++];
+    ix = faceIndices_.data() + f.first;
+    count = int(f.count);
+    positions = f.positions;
+    return true;
+  }
+  // The number (from 0) of the position line the parser's next vertex callback comes from (positions whose line the
+  // scan dropped make no callback).
+  bool nextKeptPosition(uint64_t& index) {
+    if (keptHead_ == keptPositions_.size()) return false;
+    index = keptPositions_[keptHead_++];
     return true;
   }
 
@@ -111,8 +131,12 @@ class IndexScan {
             if (strict_ && lead_ != 'f') irregular_ = true;
             face_ = FaceState{};
             if (strict_ && lead_ == 'f') {
-              const size_t e = takeFace(p, i + 1, n);
-              if (e != 0) phase_ = kLead, i = e - 1;  // on at the line's end (LF or CR)
+              const size_t e = takeFace(p, i, n);
+              if (e != 0) {
+                phase_ = kLead, i = e - 1;  // on at the line's end (LF or CR)
+              } else {
+                calls_.push_back(FaceCall{0, positions_});  // the parser reads this line itself
+              }
             }
           } else {
             phase_ = kSkip;
@@ -162,7 +186,8 @@ class IndexScan {
           if (vw_ != 0) {
             const bool space = c == ' ' || c == '\t';
             if (vw_ == 2 && space) irregular_ = true;
-            if (space && vw_ != 2) elide(p, i + 1, n, vw_ == 3);
+            if (space && vw_ == 1) position(p, i, n);
+            if (space && vw_ == 3) elide(p, i + 1, n, true);
             vw_ = vw_ == 1 && c == 'w' ? 2u : vw_ == 1 && c == 'n' ? 3u : 0u;
           }
           if (c == '\n' || c == '\r') {
@@ -188,12 +213,19 @@ class IndexScan {
     const char* cr = static_cast<const char*>(std::memchr(p + from, '\r', size_t(e - (p + from))));
     return cr ? cr : e;
   }
-  // An f line whose body, bytes [from, end of line), lies in these bytes and is 1+ tokens of the strict forms (each
-  // field an optional '-' and 1-9 digits, not all 0 — no overflow, and the values tinyobjloader's atoi gives) is
-  // read here: its vertices are queued for nextFace and the body becomes "0" (the parser reads "f 0", one vertex of
-  // index 0, which no strict face has). Returns the line end's position, or 0 when the line is left to the
-  // character scan (and the parser): another form, or a line that goes on beyond these bytes.
-  size_t takeFace(char* p, size_t from, size_t n) {
+  // The length of the line end at e (< p + n): CR LF within these bytes is 2, else 1.
+  static size_t endLength(const char* p, const char* e, size_t n) {
+    return *e == '\r' && e + 1 < p + n && e[1] == '\n' ? 2 : 1;
+  }
+  // An f line whose body, bytes [at + 1, end of line) (`at`: the blank after "f"), lies in these bytes and is 1+
+  // tokens of the strict forms (each field an optional '-' and 1-9 digits, not all 0 — no overflow, and the values
+  // tinyobjloader's atoi gives) is read here and queued for nextFace. The first of a run of such lines with nothing
+  // else between them (but position lines dropped whole, see position()) within these bytes keeps "f 0" (the parser
+  // reads one vertex of index 0, which no strict face has: its callback takes the whole run, nextCall); the others
+  // are dropped whole. Returns the line end's position, or 0 when the line is left to the character scan (and the
+  // parser): another form, or a line that goes on beyond these bytes.
+  size_t takeFace(char* p, size_t at, size_t n) {
+    const size_t from = at + 1;
     const char* b = p + from;
     const char* e = lineEnd(p, from, n);
     if (e == p + n) return 0;
@@ -233,10 +265,45 @@ class IndexScan {
       ++count;
     }
     if (count == 0) return 0;
-    faceCounts_.push_back(count);
-    p[from] = '0';
-    if (size_t(e - p) > from + 1) drops_.emplace_back(from + 1, size_t(e - p));
-    return size_t(e - p);
+    faces_.push_back(QueuedFace{first, count, positions_});
+    const size_t end = size_t(e - p), next = end + endLength(p, e, n);
+    if (at >= 1 && at - 1 == openAt_) {  // the run goes on: the whole line goes
+      ++calls_.back().faces;
+      drops_.emplace_back(at - 1, next);
+    } else {
+      calls_.push_back(FaceCall{1, 0});
+      p[from] = '0';
+      if (end > from + 1) drops_.emplace_back(from + 1, end);
+    }
+    openAt_ = next;
+    return end;
+  }
+  // A position (v) line (strict; `at`: the blank after "v"). The whole line goes when its numbers are surely finite
+  // (finiteNumbers) and it lies in these bytes: the parser makes no callback for it. Otherwise the parser reads it
+  // (its numbers elided when surely finite, see elide()) and its number is queued for nextKeptPosition.
+  void position(char* p, size_t at, size_t n) {
+    const char* e = lineEnd(p, at + 1, n);
+    if (at >= 1 && e != p + n && finiteNumbers(p + at + 1, e)) {
+      const size_t next = size_t(e - p) + endLength(p, e, n);
+      drops_.emplace_back(at - 1, next);
+      if (at - 1 == openAt_) openAt_ = next;  // between two faces of a run: the run goes on
+    } else {
+      keptPositions_.push_back(positions_);
+      elide(p, at + 1, n, false);
+    }
+    ++positions_;
+  }
+  // Drops what the parser has taken from the queues (what is left: at most a line that crossed the last chunk's end).
+  void compactQueues() {
+    if (callHead_ != 0) calls_.erase(calls_.begin(), calls_.begin() + ptrdiff_t(callHead_)), callHead_ = 0;
+    if (keptHead_ != 0)
+      keptPositions_.erase(keptPositions_.begin(), keptPositions_.begin() + ptrdiff_t(keptHead_)),
+          keptHead_ = 0;
+    if (faceHead_ == 0) return;
+    const size_t firstLeft = faceHead_ < faces_.size() ? faces_[faceHead_].first : faceIndices_.size();
+    faces_.erase(faces_.begin(), faces_.begin() + ptrdiff_t(faceHead_)), faceHead_ = 0;
+    faceIndices_.erase(faceIndices_.begin(), faceIndices_.begin() + ptrdiff_t(firstLeft));
+    for (QueuedFace& f : faces_) f.first -= firstLeft;
   }
   // A position (v) or normal (vn) line's numbers, bytes [from, end of line) (strict only): tinyobjloader's callback
   // parser need not read them. A normal is only counted (UvParse), so its numbers go; a position is read for the
@@ -402,11 +469,21 @@ class IndexScan {
   uint64_t value_ = 0;
   char token_[40] = {};  // the digits of the last number (the first 40)
   uint32_t tokenLength_ = 0;
-  std::vector<std::pair<size_t, size_t>> drops_;  // byte ranges feed() removes (elide, takeFace)
-  // The faces takeFace read and the parser has not reached yet: their vertices, and per face its count.
+  std::vector<std::pair<size_t, size_t>> drops_;  // byte ranges feed() removes (elide, takeFace, position)
+  uint64_t positions_ = 0;                        // position lines so far (strict)
+  size_t openAt_ = SIZE_MAX;  // where in these bytes a line must start to join the last run of faces
+  // The faces takeFace read and the parser has not reached yet: their vertices, and per face its first vertex, count
+  // and the position lines before it; the parser's face callbacks to come; the kept position lines' numbers.
+  struct QueuedFace {
+    size_t first;
+    uint32_t count;
+    uint64_t positions;
+  };
   std::vector<tinyobj::index_t> faceIndices_;
-  std::vector<uint32_t> faceCounts_;
-  size_t faceHead_ = 0, faceAt_ = 0;  // the next face to hand out and its first vertex
+  std::vector<QueuedFace> faces_;
+  std::vector<FaceCall> calls_;
+  std::vector<uint64_t> keptPositions_;
+  size_t faceHead_ = 0, callHead_ = 0, keptHead_ = 0;
 };
 
 // The OBJ file as a stream for the parser, read in 64 KiB chunks from the open file (at most `size` bytes: a
@@ -421,7 +498,11 @@ class ObjFileBuf : public std::streambuf {
   bool readFailed() const { return readFailed_; }
   bool badIndex() const { return badIndex_; }
   const IndexScan& scan() const { return scan_; }
-  bool nextFace(const tinyobj::index_t*& ix, int& count) { return scan_.nextFace(ix, count); }
+  bool nextCall(IndexScan::FaceCall& call) { return scan_.nextCall(call); }
+  bool nextFace(const tinyobj::index_t*& ix, int& count, uint64_t& positions) {
+    return scan_.nextFace(ix, count, positions);
+  }
+  bool nextKeptPosition(uint64_t& index) { return scan_.nextKeptPosition(index); }
   // Ends the stream after the bytes already handed out (the UV-only load gives up on an irregular file).
   void stop() {
     stopped_ = true;
@@ -1040,8 +1121,10 @@ struct UvParse {
   ObjFileBuf* file = nullptr;
   const MtlReader* mtl = nullptr;
   std::vector<tinyobj::material_t> mats;
-  std::vector<float> vt;      // u, v per texture coordinate
-  std::vector<uint8_t> badV;  // per position: how many of x, y, z are not finite
+  std::vector<float> vt;  // u, v per texture coordinate
+  // The positions with x, y or z not finite: (number, how many of the three), in file order.
+  std::vector<std::pair<uint64_t, uint8_t>> badPositions;
+  uint64_t lastPositions = 0;  // position lines before the last face
   uint64_t normals = 0;
   int material = -1;
   std::string name;   // the name of the current shape (g or o)
@@ -1118,7 +1201,8 @@ struct UvParse {
     openGeometries.clear();
     shapeFirst = uint32_t(scene->geometries.size());
     pairSlots.clear();
-    slotBase = uint32_t(badV.size());
+    slotBase =
+        uint32_t(std::min<uint64_t>(lastPositions, UINT32_MAX));  // at most the positions before the shape
   }
   // A raw index (non-zero: IndexScan's strict forms) resolved as LoadObj's fixIndex does against the `count`
   // elements read so far; -1 when it does not name one of them (LoadObj would warn or the loader fail).
@@ -1126,13 +1210,29 @@ struct UvParse {
     const int64_t i = raw > 0 ? int64_t(raw) - 1 : int64_t(count) + int64_t(raw);
     return i >= 0 && uint64_t(i) < count ? i : -1;
   }
+  // A face callback of the parser: an f line it read, or "f 0", a run of faces the scan read (IndexScan::nextCall).
   void face(const tinyobj::index_t* ix, int n) {
     if (irregular) return;
-    // "f 0": a face the scan read (IndexScan::takeFace).
-    if (n == 1 && ix[0].vertex_index == 0 && ix[0].texcoord_index == 0 && ix[0].normal_index == 0 &&
-        !file->nextFace(ix, n))
-      return giveUp();
+    const bool marker =
+        n == 1 && ix[0].vertex_index == 0 && ix[0].texcoord_index == 0 && ix[0].normal_index == 0;
+    IndexScan::FaceCall call;
+    if (!file->nextCall(call) || (call.faces != 0) != marker) return giveUp();
+    if (!marker) return addFace(ix, n, call.positions);
+    for (uint32_t k = 0; k < call.faces && !irregular; ++k) {
+      uint64_t positions = 0;
+      if (!file->nextFace(ix, n, positions)) return giveUp();
+      addFace(ix, n, positions);
+    }
+  }
+  // How many of x, y, z of position v are not finite.
+  uint8_t badCount(uint64_t v) const {
+    const auto it = std::lower_bound(badPositions.begin(), badPositions.end(), std::make_pair(v, uint8_t(0)));
+    return it != badPositions.end() && it->first == v ? it->second : 0;
+  }
+  // A face of n raw indices after `nv` position lines.
+  void addFace(const tinyobj::index_t* ix, int n, uint64_t nv) {
     if (n < 3) return giveUp();  // LoadObj warns ("Degenerated face") and skips it
+    lastPositions = nv;
     int mat = material;
     if (mat >= int(mats.size())) mat = -1;
     auto [it, added] = geometryOf.try_emplace(mat);
@@ -1146,7 +1246,7 @@ struct UvParse {
       openGeometries.push_back(&it->second);
     }
     Geometry& g = scene->geometries[it->second.geometry];
-    const uint64_t nv = badV.size(), nt = vt.size() / 2;
+    const uint64_t nt = vt.size() / 2;
     uint32_t local[3] = {0, 0, 0};
     for (int k = 0; k < n; ++k) {
       const int64_t v = resolve(ix[k].vertex_index, nv);
@@ -1157,7 +1257,7 @@ struct UvParse {
       const auto [vertex, inserted] =
           number(it->second, uint32_t(v), uint32_t(int32_t(t)), uint32_t(g.uvs.size() / 2));
       if (inserted) {
-        nonFinite += badV[size_t(v)];
+        if (!badPositions.empty()) nonFinite += badCount(uint64_t(v));
         appendUv(g.uvs, t >= 0 ? &vt[2 * size_t(t)] : nullptr);
       }
       fanCorner(uint32_t(k), vertex, local, g.indices);
@@ -1181,8 +1281,11 @@ Result<Scene> ObjLoader::runUvOnly(bool& irregular, uint64_t& nonFinite) {
   u.mtl = &mtl;
   tinyobj::callback_t cb;
   cb.vertex_cb = [](void* d, tinyobj::real_t x, tinyobj::real_t y, tinyobj::real_t z, tinyobj::real_t) {
-    static_cast<UvParse*>(d)->badV.push_back(
-        uint8_t(!std::isfinite(x) + !std::isfinite(y) + !std::isfinite(z)));
+    UvParse& u = *static_cast<UvParse*>(d);
+    uint64_t index = 0;
+    if (!u.file->nextKeptPosition(index)) return u.giveUp();
+    const auto bad = uint8_t(!std::isfinite(x) + !std::isfinite(y) + !std::isfinite(z));
+    if (bad != 0) u.badPositions.emplace_back(index, bad);
   };
   cb.normal_cb = [](void* d, tinyobj::real_t, tinyobj::real_t, tinyobj::real_t) {
     ++static_cast<UvParse*>(d)->normals;
@@ -1236,7 +1339,7 @@ Result<Scene> ObjLoader::runUvOnly(bool& irregular, uint64_t& nonFinite) {
   scene_.inputFiles.push_back(path_);
   scene_.inputFiles.insert(scene_.inputFiles.end(), mtl.read.begin(), mtl.read.end());
   std::vector<float>().swap(u.vt);
-  std::vector<uint8_t>().swap(u.badV);
+  std::vector<std::pair<uint64_t, uint8_t>>().swap(u.badPositions);
   // The default material, when used, comes after the file's (as in run()).
   int defaultMaterial = -1;
   for (Geometry& g : scene_.geometries)

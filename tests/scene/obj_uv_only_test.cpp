@@ -267,6 +267,64 @@ TEST(ObjUvOnly, LinesAcrossReadChunks) {
   }
 }
 
+// Runs of face lines with position lines between them (the scan drops both whole and the parser sees one "f 0" per
+// run within a chunk): relative indices to the dropped positions, non-finite positions the parser reads among them,
+// runs broken by texture coordinates, materials and objects, at every offset around the chunk ends, LF and CR LF.
+TEST(ObjUvOnly, RunsOfFacesAcrossReadChunks) {
+  TempDir dir;
+  scenetest::writePng8(dir.file("leaf.png"), 2, 2, 4,
+                       {255, 0, 0, 255, 0, 255, 0, 0, 0, 0, 255, 128, 9, 9, 9, 64});
+  writeFile(dir.file("m.mtl"), kMtl);
+  for (const char* eol : {"\n", "\r\n"}) {
+    SCOPED_TRACE(eol[0] == '\r' ? "CR LF" : "LF");
+    std::string text = std::string("mtllib m.mtl") + eol + "vt 0.5 0.25" + eol + "vt 0.75 1" + eol;
+    uint64_t positions = 0;
+    for (uint32_t k = 0; text.size() < 400000; ++k) {
+      const std::string pad(k % 19, '0');
+      if (k % 11 == 0) text += "o block" + std::to_string(k) + eol;
+      if (k % 7 == 0) text += std::string("usemtl ") + (k % 14 ? "leaf" : "bark") + eol;
+      for (uint32_t i = 0; i < 3 + k % 4; ++i, ++positions)
+        text += "v " + std::to_string(k % 53) + "." + pad + "5 " + std::to_string(i) + " -0.25" + eol;
+      if (k % 5 == 0) text += "vt 0." + std::to_string(k % 97) + " 0.5" + eol;
+      for (uint32_t f = 0; f < 1 + k % 9; ++f) {
+        switch ((k + f) % 6) {
+          case 0:  // absolute indices
+            text += "f " + std::to_string(positions) + "/1 " + std::to_string(positions - 1) + "/2 " +
+                    std::to_string(positions - 2) + "/1" + eol;
+            break;
+          case 1:  // a dropped position between two faces, named relatively
+            text += "v 1." + pad + "5 2 3" + eol;
+            ++positions;
+            text += std::string("f -1/-1 -2/-2 -3/-1 -4/-2") + eol;
+            break;
+          case 2:  // a position the parser reads (not surely finite) inside a run
+            text += std::string(k % 3 ? "v 1e99 0 0" : "v nan 1 2") + eol;
+            ++positions;
+            text += "f\t-1 " + std::to_string(positions - 1) + "  -3" + eol;
+            break;
+          case 3:  // a texture coordinate: the run breaks
+            text += "vt 0.125 0." + std::to_string(f) + eol + std::string("f -1/-1 -2/-1 -3/-2") + eol;
+            break;
+          case 4:  // a comment line: the run breaks
+            text += "# c" + std::string(f, ' ') + eol + "f 1/1 2/2 " + std::to_string(positions) + "/1" + eol;
+            break;
+          default:
+            text += "f " + std::to_string(positions - 2) + " -1 -2" + eol;
+            break;
+        }
+      }
+    }
+    const std::string path = dir.file("runs.obj");
+    writeFile(path, text);
+    EXPECT_GT(expectSameLoad(path), 8);
+    bool irregular = false;
+    uint64_t nonFinite = 0;
+    EXPECT_TRUE(somm::detail::loadObjUvOnly(path, somm::LoadOptions{}, irregular, nonFinite).ok());
+    EXPECT_FALSE(irregular);
+    EXPECT_GT(nonFinite, 0u);
+  }
+}
+
 // Texture coordinates: 30,000 random numbers of up to 15 integer and 8 fraction digits, bit for bit as the full load
 // reads them.
 TEST(ObjUvOnly, RandomTextureCoordinatesAsTheParserReadsThem) {

@@ -83,20 +83,31 @@ class IndexScan {
   // when `positions` position lines preceded it. False when there is none.
   struct FaceCall {
     uint32_t faces = 0;
-    uint64_t positions = 0;
+    uint64_t positions = 0, texcoords = 0;
   };
   bool nextCall(FaceCall& call) {
     if (callHead_ == calls_.size()) return false;
     call = calls_[callHead_++];
     return true;
   }
-  // The next face of a batch: its vertices, their count and the number of position lines before it.
-  bool nextFace(const tinyobj::index_t*& ix, int& count, uint64_t& positions) {
+  // The next face of a batch: its vertices, their count and the numbers of position and texture coordinate lines
+  // before it.
+  bool nextFace(const tinyobj::index_t*& ix, int& count, uint64_t& positions, uint64_t& texcoords) {
     if (faceHead_ == faces_.size()) return false;
     const QueuedFace& f = faces_[faceHead_++];
     ix = faceIndices_.data() + f.first;
     count = int(f.count);
     positions = f.positions;
+    texcoords = f.texcoords;
+    return true;
+  }
+  // The texture coordinates (u, v per line, in file order): the scan stores those it reads and reserves the places
+  // of those the parser reads (nextKeptTexcoord). Strict; without it the parser reads every texture coordinate line.
+  void setTexcoords(std::vector<float>* uv) { texcoords_ = uv; }
+  // The number (from 0) of the texture coordinate line the parser's next texture coordinate callback comes from.
+  bool nextKeptTexcoord(uint64_t& index) {
+    if (keptUvHead_ == keptTexcoords_.size()) return false;
+    index = keptTexcoords_[keptUvHead_++];
     return true;
   }
   // The number (from 0) of the position line the parser's next vertex callback comes from (positions whose line the
@@ -135,7 +146,7 @@ class IndexScan {
               if (e != 0) {
                 phase_ = kLead, i = e - 1;  // on at the line's end (LF or CR)
               } else {
-                calls_.push_back(FaceCall{0, positions_});  // the parser reads this line itself
+                calls_.push_back(FaceCall{0, positions_, texcoordCount()});  // the parser reads this line
               }
             }
           } else {
@@ -188,7 +199,8 @@ class IndexScan {
             if (vw_ == 2 && space) irregular_ = true;
             if (space && vw_ == 1) position(p, i, n);
             if (space && vw_ == 3) elide(p, i + 1, n, true);
-            vw_ = vw_ == 1 && c == 'w' ? 2u : vw_ == 1 && c == 'n' ? 3u : 0u;
+            if (space && vw_ == 4) texcoord(p, i, n);
+            vw_ = vw_ != 1 ? 0u : c == 'w' ? 2u : c == 'n' ? 3u : c == 't' ? 4u : 0u;
           }
           if (c == '\n' || c == '\r') {
             line_ += c == '\n';
@@ -265,13 +277,13 @@ class IndexScan {
       ++count;
     }
     if (count == 0) return 0;
-    faces_.push_back(QueuedFace{first, count, positions_});
+    faces_.push_back(QueuedFace{first, count, positions_, texcoordCount()});
     const size_t end = size_t(e - p), next = end + endLength(p, e, n);
     if (at >= 1 && at - 1 == openAt_) {  // the run goes on: the whole line goes
       ++calls_.back().faces;
       drops_.emplace_back(at - 1, next);
     } else {
-      calls_.push_back(FaceCall{1, 0});
+      calls_.push_back(FaceCall{1, 0, 0});
       p[from] = '0';
       if (end > from + 1) drops_.emplace_back(from + 1, end);
     }
@@ -293,12 +305,79 @@ class IndexScan {
     }
     ++positions_;
   }
+  uint64_t texcoordCount() const { return texcoords_ ? texcoords_->size() / 2 : 0; }
+  // A texture coordinate (vt) line (strict; `at`: the blank after "vt"). Read here when it lies in these bytes and
+  // its first two numbers (what the parser's callback passes on; the rest of the line is never used) are each empty
+  // or of the form [+-](digits[.digits] | digits. | .digits)[(e|E)[+-]digits], at most 3 exponent digits: their
+  // values are those of tinyobjloader's parseReal (readNumber), and the whole line goes. Otherwise the parser reads
+  // it into the place reserved here.
+  void texcoord(char* p, size_t at, size_t n) {
+    if (!texcoords_) return;
+    const char* e = lineEnd(p, at + 1, n);
+    float uv[2] = {0.0f, 0.0f};
+    bool read = at >= 2 && e != p + n;
+    const char* q = p + at + 1;
+    for (int k = 0; k < 2 && read; ++k) {
+      while (q != e && (*q == ' ' || *q == '\t')) ++q;
+      double value = 0.0;
+      if (q != e) q = readNumber(q, e, value);
+      read = q != nullptr && (q == e || *q == ' ' || *q == '\t');  // the number is the whole token
+      uv[k] = float(value);
+    }
+    texcoords_->insert(texcoords_->end(), uv, uv + 2);
+    if (read) {
+      const size_t next = size_t(e - p) + endLength(p, e, n);
+      drops_.emplace_back(at - 2, next);
+      if (at - 2 == openAt_) openAt_ = next;  // between two faces of a run: the run goes on
+    } else {
+      keptTexcoords_.push_back(texcoordCount() - 1);
+    }
+  }
+  // A number of the form above at b (before e), with the arithmetic of tinyobjloader's tryParseDouble (the same
+  // double operations in the same order: the digits accumulated, the fraction digits' weights from a table of 10^-k
+  // up to k = 7 and pow(10, -k) beyond, the exponent as ldexp(m * pow(5, x), x), the sign applied last). Returns
+  // where it ends, or nullptr when the bytes at b do not start with that form.
+  static const char* readNumber(const char* b, const char* e, double& value) {
+    const char* q = b;
+    const bool negative = q != e && *q == '-';
+    if (q != e && (*q == '+' || *q == '-')) ++q;
+    double m = 0.0;
+    const char* digits = q;
+    for (; q != e && *q >= '0' && *q <= '9'; ++q) m = m * 10 + double(*q - '0');
+    bool any = q != digits;
+    if (q != e && *q == '.') {
+      static const double kTenths[] = {1.0, 0.1, 0.01, 0.001, 0.0001, 0.00001, 0.000001, 0.0000001};
+      ++q;
+      int k = 1;
+      for (; q != e && *q >= '0' && *q <= '9'; ++q, ++k) {
+        const double w = k < 8 ? kTenths[k] : std::pow(10.0, -k);
+        m += double(*q - '0') * w;
+        any = true;
+      }
+    }
+    if (!any) return nullptr;  // no digit before or after the point
+    int exponent = 0;
+    if (q != e && (*q == 'e' || *q == 'E')) {
+      ++q;
+      const bool negativeExp = q != e && *q == '-';
+      if (q != e && (*q == '+' || *q == '-')) ++q;
+      const char* d = q;
+      for (; q != e && *q >= '0' && *q <= '9'; ++q) exponent = exponent * 10 + (*q - '0');
+      if (q == d || q - d > 3) return nullptr;
+      if (negativeExp) exponent = -exponent;
+    }
+    value = (negative ? -1 : 1) * (exponent != 0 ? std::ldexp(m * std::pow(5.0, exponent), exponent) : m);
+    return q;
+  }
   // Drops what the parser has taken from the queues (what is left: at most a line that crossed the last chunk's end).
   void compactQueues() {
     if (callHead_ != 0) calls_.erase(calls_.begin(), calls_.begin() + ptrdiff_t(callHead_)), callHead_ = 0;
     if (keptHead_ != 0)
       keptPositions_.erase(keptPositions_.begin(), keptPositions_.begin() + ptrdiff_t(keptHead_)),
           keptHead_ = 0;
+    if (keptUvHead_ != 0)
+      keptTexcoords_.erase(keptTexcoords_.begin(), keptTexcoords_.begin() + ptrdiff_t(keptUvHead_)),
+          keptUvHead_ = 0;
     if (faceHead_ == 0) return;
     const size_t firstLeft = faceHead_ < faces_.size() ? faces_[faceHead_].first : faceIndices_.size();
     faces_.erase(faces_.begin(), faces_.begin() + ptrdiff_t(faceHead_)), faceHead_ = 0;
@@ -461,8 +540,8 @@ class IndexScan {
   Phase phase_ = kLead;
   char lead_ = 0;
   uint32_t word_ = 0;
-  uint32_t vw_ =
-      0;  // a line whose first character was 'v' (strict): 1, then 2 after "vw", 3 after "vn" (0: neither)
+  // A line whose first character was 'v' (strict): 1, then 2 after "vw", 3 after "vn", 4 after "vt" (0: none).
+  uint32_t vw_ = 0;
   FaceState face_;
   size_t line_ = 1;
   bool inNumber_ = false;
@@ -477,13 +556,14 @@ class IndexScan {
   struct QueuedFace {
     size_t first;
     uint32_t count;
-    uint64_t positions;
+    uint64_t positions, texcoords;
   };
   std::vector<tinyobj::index_t> faceIndices_;
   std::vector<QueuedFace> faces_;
   std::vector<FaceCall> calls_;
-  std::vector<uint64_t> keptPositions_;
-  size_t faceHead_ = 0, callHead_ = 0, keptHead_ = 0;
+  std::vector<uint64_t> keptPositions_, keptTexcoords_;
+  std::vector<float>* texcoords_ = nullptr;
+  size_t faceHead_ = 0, callHead_ = 0, keptHead_ = 0, keptUvHead_ = 0;
 };
 
 // The OBJ file as a stream for the parser, read in 64 KiB chunks from the open file (at most `size` bytes: a
@@ -499,9 +579,11 @@ class ObjFileBuf : public std::streambuf {
   bool badIndex() const { return badIndex_; }
   const IndexScan& scan() const { return scan_; }
   bool nextCall(IndexScan::FaceCall& call) { return scan_.nextCall(call); }
-  bool nextFace(const tinyobj::index_t*& ix, int& count, uint64_t& positions) {
-    return scan_.nextFace(ix, count, positions);
+  bool nextFace(const tinyobj::index_t*& ix, int& count, uint64_t& positions, uint64_t& texcoords) {
+    return scan_.nextFace(ix, count, positions, texcoords);
   }
+  void setTexcoords(std::vector<float>* uv) { scan_.setTexcoords(uv); }
+  bool nextKeptTexcoord(uint64_t& index) { return scan_.nextKeptTexcoord(index); }
   bool nextKeptPosition(uint64_t& index) { return scan_.nextKeptPosition(index); }
   // Ends the stream after the bytes already handed out (the UV-only load gives up on an irregular file).
   void stop() {
@@ -1217,11 +1299,11 @@ struct UvParse {
         n == 1 && ix[0].vertex_index == 0 && ix[0].texcoord_index == 0 && ix[0].normal_index == 0;
     IndexScan::FaceCall call;
     if (!file->nextCall(call) || (call.faces != 0) != marker) return giveUp();
-    if (!marker) return addFace(ix, n, call.positions);
+    if (!marker) return addFace(ix, n, call.positions, call.texcoords);
     for (uint32_t k = 0; k < call.faces && !irregular; ++k) {
-      uint64_t positions = 0;
-      if (!file->nextFace(ix, n, positions)) return giveUp();
-      addFace(ix, n, positions);
+      uint64_t positions = 0, texcoords = 0;
+      if (!file->nextFace(ix, n, positions, texcoords)) return giveUp();
+      addFace(ix, n, positions, texcoords);
     }
   }
   // How many of x, y, z of position v are not finite.
@@ -1229,8 +1311,8 @@ struct UvParse {
     const auto it = std::lower_bound(badPositions.begin(), badPositions.end(), std::make_pair(v, uint8_t(0)));
     return it != badPositions.end() && it->first == v ? it->second : 0;
   }
-  // A face of n raw indices after `nv` position lines.
-  void addFace(const tinyobj::index_t* ix, int n, uint64_t nv) {
+  // A face of n raw indices after `nv` position and `nt` texture coordinate lines.
+  void addFace(const tinyobj::index_t* ix, int n, uint64_t nv, uint64_t nt) {
     if (n < 3) return giveUp();  // LoadObj warns ("Degenerated face") and skips it
     lastPositions = nv;
     int mat = material;
@@ -1246,7 +1328,6 @@ struct UvParse {
       openGeometries.push_back(&it->second);
     }
     Geometry& g = scene->geometries[it->second.geometry];
-    const uint64_t nt = vt.size() / 2;
     uint32_t local[3] = {0, 0, 0};
     for (int k = 0; k < n; ++k) {
       const int64_t v = resolve(ix[k].vertex_index, nv);
@@ -1279,6 +1360,7 @@ Result<Scene> ObjLoader::runUvOnly(bool& irregular, uint64_t& nonFinite) {
   u.scene = &scene_;
   u.file = file.get();
   u.mtl = &mtl;
+  file->setTexcoords(&u.vt);
   tinyobj::callback_t cb;
   cb.vertex_cb = [](void* d, tinyobj::real_t x, tinyobj::real_t y, tinyobj::real_t z, tinyobj::real_t) {
     UvParse& u = *static_cast<UvParse*>(d);
@@ -1291,9 +1373,11 @@ Result<Scene> ObjLoader::runUvOnly(bool& irregular, uint64_t& nonFinite) {
     ++static_cast<UvParse*>(d)->normals;
   };
   cb.texcoord_cb = [](void* d, tinyobj::real_t x, tinyobj::real_t y, tinyobj::real_t) {
-    auto& vt = static_cast<UvParse*>(d)->vt;
-    vt.push_back(float(x));
-    vt.push_back(float(y));
+    UvParse& u = *static_cast<UvParse*>(d);
+    uint64_t index = 0;
+    if (!u.file->nextKeptTexcoord(index)) return u.giveUp();
+    u.vt[2 * index] = float(x);
+    u.vt[2 * index + 1] = float(y);
   };
   cb.index_cb = [](void* d, tinyobj::index_t* ix, int n) { static_cast<UvParse*>(d)->face(ix, n); };
   cb.usemtl_cb = [](void* d, const char* text, int) {

@@ -269,7 +269,8 @@ TEST(ObjUvOnly, LinesAcrossReadChunks) {
 
 // Runs of face lines with position lines between them (the scan drops both whole and the parser sees one "f 0" per
 // run within a chunk): relative indices to the dropped positions, non-finite positions the parser reads among them,
-// runs broken by texture coordinates, materials and objects, at every offset around the chunk ends, LF and CR LF.
+// texture coordinates inside runs (read by the scan, or by the parser: the run breaks), runs broken by comments,
+// materials and objects, at every offset around the chunk ends, LF and CR LF.
 TEST(ObjUvOnly, RunsOfFacesAcrossReadChunks) {
   TempDir dir;
   scenetest::writePng8(dir.file("leaf.png"), 2, 2, 4,
@@ -302,8 +303,9 @@ TEST(ObjUvOnly, RunsOfFacesAcrossReadChunks) {
             ++positions;
             text += "f\t-1 " + std::to_string(positions - 1) + "  -3" + eol;
             break;
-          case 3:  // a texture coordinate: the run breaks
-            text += "vt 0.125 0." + std::to_string(f) + eol + std::string("f -1/-1 -2/-1 -3/-2") + eol;
+          case 3:  // a texture coordinate the scan reads, or (odd f) one it leaves to the parser
+            text += (f % 2 ? "vt 0.5x 0." : "vt 0.125 0.") + std::to_string(f) + eol +
+                    std::string("f -1/-1 -2/-1 -3/-2") + eol;
             break;
           case 4:  // a comment line: the run breaks
             text += "# c" + std::string(f, ' ') + eol + "f 1/1 2/2 " + std::to_string(positions) + "/1" + eol;
@@ -325,28 +327,49 @@ TEST(ObjUvOnly, RunsOfFacesAcrossReadChunks) {
   }
 }
 
-// Texture coordinates: 30,000 random numbers of up to 15 integer and 8 fraction digits, bit for bit as the full load
-// reads them.
+// Texture coordinates: 40,000 lines of random numbers of up to 15 integer and 20 fraction digits, bit for bit as the
+// full load reads them.
 TEST(ObjUvOnly, RandomTextureCoordinatesAsTheParserReadsThem) {
   TempDir dir;
   std::mt19937_64 rng(7);
+  // The forms the scan reads itself — signs, a leading or trailing point, up to 20 fraction digits (weights past the
+  // parser's table of 10^-k), exponents of 1-3 digits (subnormal, overflowing) — and some it leaves to the parser.
   auto number = [&] {
-    std::string t = rng() % 4 == 0 ? "-" : "";
-    const int intDigits = int(rng() % 16), fracDigits = int(rng() % 9);
-    t += intDigits == 0 ? "0" : std::to_string(1 + rng() % 9);
+    const uint64_t form = rng() % 64;
+    std::string t = form % 4 == 0 ? "-" : form % 16 == 1 ? "+" : "";
+    const int intDigits = int(rng() % 16), fracDigits = int(rng() % (form % 8 == 2 ? 21 : 9));
+    if (form % 16 != 3) t += intDigits == 0 ? "0" : std::to_string(1 + rng() % 9);
     for (int k = 1; k < intDigits; ++k) t += char('0' + rng() % 10);
-    if (fracDigits > 0 || rng() % 8 == 0) t += '.';
-    for (int k = 0; k < fracDigits; ++k) t += char('0' + rng() % 10);
+    if (fracDigits > 0 || rng() % 8 == 0 || form % 16 == 3) t += '.';
+    for (int k = 0; k < fracDigits || (form % 16 == 3 && k == 0); ++k) t += char('0' + rng() % 10);
+    if (form % 8 == 5) {
+      t += rng() % 2 ? 'e' : 'E';
+      const uint64_t sign = rng() % 3;
+      t += sign == 0 ? "-" : sign == 1 ? "+" : "";
+      t += std::to_string(rng() % (rng() % 4 == 0 ? 1000 : 40));
+    }
+    if (form == 63) t += rng() % 2 ? "x" : "e";  // not a number the scan reads: the parser's
     return t;
   };
   std::string text = "v 0 0 0\nv 1 0 0\nv 1 1 0\n";
-  const int n = 30000;
-  for (int k = 0; k < n; ++k) text += "vt " + number() + " " + number() + "\n";
+  const int n = 40000;
+  for (int k = 0; k < n; ++k) {
+    text += rng() % 8 ? "vt " : "vt\t ";
+    text += number();
+    text += rng() % 4 ? ' ' : '\t';
+    text += number();
+    if (rng() % 8 == 0) text += ' ', text += number();  // a third number, unused
+    text += '\n';
+  }
   for (int k = 1; k + 2 <= n; k += 3)
     text += "f 1/" + std::to_string(k) + " 2/" + std::to_string(k + 1) + " 3/" + std::to_string(k + 2) + "\n";
   const std::string path = dir.file("uv.obj");
   writeFile(path, text);
   EXPECT_EQ(expectSameLoad(path), 1);
+  bool irregular = false;
+  uint64_t nonFinite = 0;
+  EXPECT_TRUE(somm::detail::loadObjUvOnly(path, somm::LoadOptions{}, irregular, nonFinite).ok());
+  EXPECT_FALSE(irregular);
 }
 
 TEST(ObjUvOnly, SameAsFullLoadOnBundledScene) {

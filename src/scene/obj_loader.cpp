@@ -252,18 +252,16 @@ class IndexScan {
         const bool negative = *q == '-';
         q += negative;
         const char* d = q;
-        int32_t v = 0;
-        bool nonzero = false;
-        for (; q != e && *q >= '0' && *q <= '9'; ++q) {
-          if (q - d < 9) v = v * 10 + (*q - '0');  // more digits: left to the character scan below
-          nonzero = nonzero || *q != '0';
-        }
+        // The digits (the line end at e stops the loop); more than 9: left to the character scan below (v may
+        // wrap then, unsigned).
+        uint64_t v = 0;
+        while (uint8_t(*q - '0') < 10) v = v * 10 + uint64_t(*q++ - '0');
         if (q == d) {  // an empty field: only the middle one of v//n
           if (negative || field != 1 || q == e || *q != '/') return faceIndices_.resize(first), 0;
-        } else if (q - d > 9 || !nonzero) {
+        } else if (q - d > 9 || v == 0) {
           return faceIndices_.resize(first), 0;
         }
-        f[field] = negative ? -v : v;
+        f[field] = negative ? -int32_t(v) : int32_t(v);
         if (q == e || *q != '/') break;
         if (field == 2) return faceIndices_.resize(first), 0;
         ++q;

@@ -53,7 +53,7 @@ class IndexScan {
   bool feed(char* p, size_t n, size_t& kept) {
     drops_.clear();
     compactQueues();
-    openAt_ = SIZE_MAX;  // a batch of faces never continues into another chunk
+    openAt_ = SIZE_MAX;  // a run of faces never goes on into another chunk
     if (!scan(p, n)) return false;
     kept = n;
     if (drops_.empty()) return true;
@@ -360,7 +360,8 @@ class IndexScan {
       const bool negativeExp = q != e && *q == '-';
       if (q != e && (*q == '+' || *q == '-')) ++q;
       const char* d = q;
-      for (; q != e && *q >= '0' && *q <= '9'; ++q) exponent = exponent * 10 + (*q - '0');
+      for (; q != e && *q >= '0' && *q <= '9'; ++q)
+        if (q - d < 3) exponent = exponent * 10 + (*q - '0');  // more digits: not read here (no overflow)
       if (q == d || q - d > 3) return nullptr;
       if (negativeExp) exponent = -exponent;
     }

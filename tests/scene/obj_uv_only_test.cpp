@@ -149,9 +149,10 @@ std::vector<Case> corpus() {
        v + "vt 0.1 0.7\nvt -0.25 1.\nvt 0.1234567 0.9999999 0.5 junk\nvt 0.12345678 0.3\nvt "
            "123456789012345.5 -0\n"
            "vt 1234567890123456 0\nvt 1e-3 0.5\nvt\t.5 -.5\nvt +0.5 0.5\nvt 0.5abc 0\nvt 0.3\nvt\nvt \n"
-           "vt 0.33333 0.66667\nusemtl leaf\nf 1/6 2/7 3/8\nf 1/9 2/10 3/11\nf 1/12 2/13 3/14\nf 1/15 2/16 "
+           "vt 0.33333 0.66667\nvt 1e12345678901234567890 0.5\nvt 1.5 2e-99999999999\n"
+           "usemtl leaf\nf 1/6 2/7 3/8\nf 1/9 2/10 3/11\nf 1/12 2/13 3/14\nf 1/15 2/16 "
            "3/17\n"
-           "f 1/18 2/18 3/17\n"},
+           "f 1/18 2/18 3/17\nf 1/19 2/20 3/19\n"},
       // Face forms the scan reads itself, and forms it leaves to the parser (more than 9 digits in a field).
       {"face forms", v + "usemtl leaf\nf 1/1/1 2//1 3/3\tf_junk_is_not_here\n", false},
       {"face field lengths", v + "usemtl leaf\nf 0000000001/1 2/0000000002 3\nf 000000001/00001 "

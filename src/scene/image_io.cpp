@@ -83,6 +83,28 @@ bool jpegHuffmanTablesValid(const uint8_t* p, size_t n) {
   return true;
 }
 
+// TGA (which has no signature: stb reads a file as TGA when no other format claims it and its header is
+// plausible): stb reads zeros past the end of the data, so a truncated TGA decodes to an image padded with zeros —
+// and a 110-byte file that happens to parse as a TGA header can declare millions of texels. A TGA whose header (the
+// 18-byte TGA header, with the width and height stb reported) declares more texel data than the file can hold is
+// refused: uncompressed (types 1-3) it needs width × height × ⌈bits / 8⌉ bytes after the header, the id field and
+// the colour map; run-length encoded (types 9-11) at least ⌈width × height / 128⌉ packets of 1 + ⌈bits / 8⌉ bytes
+// (a packet stands for at most 128 texels). Returns the problem, or "" (also for files that are not such a TGA).
+std::string tgaDataProblem(const uint8_t* p, size_t n, int w, int h) {
+  if (n < 18 || p[1] > 1) return {};
+  const uint32_t type = p[2];
+  if (!((type >= 1 && type <= 3) || (type >= 9 && type <= 11))) return {};
+  const uint32_t tw = uint32_t(p[12]) | uint32_t(p[13]) << 8, th = uint32_t(p[14]) | uint32_t(p[15]) << 8;
+  if (tw != uint32_t(w) || th != uint32_t(h)) return {};  // stb read some other format
+  const uint64_t pixelBytes = (uint64_t(p[16]) + 7) / 8;
+  const uint64_t mapBytes = p[1] ? (uint64_t(p[5]) | uint64_t(p[6]) << 8) * ((uint64_t(p[7]) + 7) / 8) : 0;
+  const uint64_t texels = uint64_t(tw) * th, head = 18 + uint64_t(p[0]) + mapBytes;
+  const uint64_t data = type <= 3 ? texels * pixelBytes : (texels + 127) / 128 * (1 + pixelBytes);
+  if (head + data <= n) return {};
+  return "truncated TGA: " + std::to_string(tw) + "x" + std::to_string(th) + " texels need at least " +
+         std::to_string(head + data) + " bytes, the file has " + std::to_string(n);
+}
+
 // A palette PNG's indices may exceed its PLTE entries; stb_image then reads its uninitialised palette memory.
 // Returns a copy with PLTE padded to 256 entries (black, opaque unless tRNS says otherwise — what libpng gives
 // for such indices), or nothing when the input needs no change. Chunk CRCs are recomputed.
@@ -166,6 +188,8 @@ Result<ImageHeader> checkImage(const uint8_t* data, size_t size, const Limits& l
   }
   if (w < 1 || h < 1 || comp < 1 || comp > 4)
     return makeError(ErrorCode::CorruptFile, "image has invalid dimensions or channel count");
+  if (std::string why = tgaDataProblem(data, size, w, h); !why.empty())
+    return makeError(ErrorCode::CorruptFile, why);
   if (uint64_t(w) * uint64_t(h) > limits.imagePixels)
     return makeError(ErrorCode::LimitExceeded, "image of " + std::to_string(w) + "x" + std::to_string(h) +
                                                    " texels exceeds " +

@@ -359,6 +359,40 @@ TEST(Obj, ImageFormats) {
   }
 }
 
+// TGA has no signature and stb reads zeros past the end of its data: a truncated TGA, or a few bytes that parse as
+// a TGA header declaring millions of texels, is refused (not decoded to a zero-padded image).
+TEST(Obj, TruncatedTgaIsAnError) {
+  TempDir dir;
+  auto header = [](uint8_t type, uint16_t w, uint16_t h) {
+    std::string t(18, '\0');
+    t[2] = char(type);
+    t[12] = char(w & 255), t[13] = char(w >> 8), t[14] = char(h & 255), t[15] = char(h >> 8);
+    t[16] = 32, t[17] = 8 | 0x20;  // BGRA, 8 alpha bits, top-left origin
+    return t;
+  };
+  // Uncompressed 8×4 BGRA: alpha 255 on the left half, 0 on the right.
+  std::string tga = header(2, 8, 4);
+  for (int y = 0; y < 4; ++y)
+    for (int x = 0; x < 8; ++x) tga += std::string(3, '\x80') + char(x < 4 ? 255 : 0);
+  writeFile(dir.file("whole.tga"), tga);
+  auto r = loadQuad(dir, "map_d whole.tga\n");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_EQ(r->materials[0].alpha->at(0, 0), 1.0f);
+  EXPECT_EQ(r->materials[0].alpha->at(7, 3), 0.0f);
+  writeFile(dir.file("cut.tga"), tga.substr(0, tga.size() - 1));
+  // Run-length encoded, 4096×4096 declared in 30 bytes: at least 131,072 packets of 5 bytes needed.
+  writeFile(dir.file("rle.tga"), header(10, 4096, 4096) + std::string(12, '\x7f'));
+  for (const char* f : {"cut.tga", "rle.tga"}) {
+    SCOPED_TRACE(f);
+    auto bad = loadQuad(dir, std::string("map_d ") + f + "\n");
+    ASSERT_FALSE(bad.ok());
+    const std::string& m = bad.error().message;
+    EXPECT_NE(m.find(dir.file(f)), std::string::npos) << m;
+    EXPECT_NE(m.find("truncated TGA"), std::string::npos) << m;
+    EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+  }
+}
+
 TEST(Obj, MissingTextureNamesMaterialAndPath) {
   TempDir dir;
   for (const char* line : {"map_Kd gone.png", "map_d gone.png"}) {

@@ -20,11 +20,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   // size bounds themselves are exercised by the inputs below that and by tests/hardening.
   int w = 0, h = 0, comp = 0;
   // Never for JPEG: stbi_info itself would parse unvalidated Huffman tables (decodeImage checks them first).
-  // stb allows 0xFF fill bytes before SOI (0xFF 0xD8); a TGA may start with 0xFF too (its id length), and one of
-  // 452 bytes can declare (and RLE-fill) 1536 x 8192 RGBA: those keep the size check.
-  size_t fill = 0;
-  while (fill < size && data[fill] == 0xFF) ++fill;
-  const bool jpeg = fill >= 1 && fill < size && data[fill] == 0xD8;
+  // (A TGA may start with 0xFF too, its id length, and one of 452 bytes can declare 1536 x 8192 RGBA: not a JPEG.)
+  const bool jpeg = detail::jpegSoiOffset(data, size) != 0;
   if (!jpeg && size <= size_t(INT32_MAX) && stbi_info_from_memory(data, int(size), &w, &h, &comp) &&
       uint64_t(w) * uint64_t(h) * uint64_t(comp) > (uint64_t(1) << 22))
     return 0;

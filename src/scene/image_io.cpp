@@ -51,10 +51,8 @@ std::string pngChunkProblem(const uint8_t* p, size_t n) {
 // tables (a heap buffer overflow) when a DHT segment's 16 counts add up to more; refuse such files first. Walks the
 // marker segments like stb does (entropy-coded data byte by byte), so every DHT stb would read is seen.
 bool jpegHuffmanTablesValid(const uint8_t* p, size_t n) {
-  // stb accepts any number of 0xFF fill bytes before SOI (FF D8).
-  size_t i = 0;
-  while (i < n && p[i] == 0xFF) ++i;
-  if (i == 0 || i >= n || p[i] != 0xD8) return true;
+  size_t i = jpegSoiOffset(p, n);
+  if (i == 0) return true;
   ++i;
   auto at = [&](size_t k) -> uint32_t { return k < n ? p[k] : 0u; };  // stb reads zeros past the end
   while (i + 1 < n) {

@@ -65,6 +65,13 @@ inline bool hasPngSignature(const uint8_t* p, size_t n) noexcept {
   static constexpr uint8_t kSig[8] = {0x89, 'P', 'N', 'G', 0x0d, 0x0a, 0x1a, 0x0a};
   return n >= 8 && std::memcmp(p, kSig, 8) == 0;
 }
+// Where a JPEG's SOI marker (0xFF 0xD8) starts after the 0xFF fill bytes stb accepts before it: the offset of its
+// 0xD8 byte, or 0 when the bytes do not start so.
+inline size_t jpegSoiOffset(const uint8_t* p, size_t n) noexcept {
+  size_t i = 0;
+  while (i < n && p[i] == 0xFF) ++i;
+  return i >= 1 && i < n && p[i] == 0xD8 ? i : 0;
+}
 
 // The common PNG subset — 8-bit grey, grey+alpha, RGB, RGBA or palette (one PLTE, at most one tRNS), not interlaced,
 // without CgBI or unknown critical chunks — decoded with libdeflate and an in-place unfilter (docs/scene.md "PNG fast

@@ -46,10 +46,10 @@ namespace {
 class IndexScan {
  public:
   explicit IndexScan(bool strict = false) : strict_(strict) {}
-  // Scans bytes [p, p + n); false at the first out-of-range index (line() and token() tell which). Strict: the
-  // numbers of position (v) lines whose numbers are surely finite and of every normal (vn) line (elide()), and the
-  // bodies of the strict face lines read here (takeFace(): "f 0" is left), are dropped from the bytes (compacted in
-  // place: `kept` is their new length).
+  // Scans bytes [p, p + n); false at the first out-of-range index (line() and token() tell which). Strict: what the
+  // parser need not read is dropped from the bytes (compacted in place: `kept` is their new length) — position
+  // lines with surely finite numbers (position()), texture coordinate lines read here (texcoord()), the numbers of
+  // normal lines (elideNormal()) and strict face lines read here (takeFace(): the first of a run keeps "f 0").
   bool feed(char* p, size_t n, size_t& kept) {
     drops_.clear();
     compactQueues();
@@ -193,12 +193,13 @@ class IndexScan {
         }
         case kSkip:
           if (word_ != 0) usemtlWord(c);
-          // "vw" then a space or tab: a skin weight line (LoadObj may fail on it); "v" / "vn" then one: elide().
+          // "vw" then a space or tab: a skin weight line (LoadObj may fail on it); "v", "vn", "vt" then one: position(),
+          // elideNormal(), texcoord().
           if (vw_ != 0) {
             const bool space = c == ' ' || c == '\t';
             if (vw_ == 2 && space) irregular_ = true;
             if (space && vw_ == 1) position(p, i, n);
-            if (space && vw_ == 3) elide(p, i + 1, n, true);
+            if (space && vw_ == 3) elideNormal(p, i + 1, n);
             if (space && vw_ == 4) texcoord(p, i, n);
             vw_ = vw_ != 1 ? 0u : c == 'w' ? 2u : c == 'n' ? 3u : c == 't' ? 4u : 0u;
           }
@@ -276,30 +277,38 @@ class IndexScan {
     }
     if (count == 0) return 0;
     faces_.push_back(QueuedFace{first, count, positions_, texcoordCount()});
-    const size_t end = size_t(e - p), next = end + endLength(p, e, n);
+    const size_t end = size_t(e - p);
     if (at >= 1 && at - 1 == openAt_) {  // the run goes on: the whole line goes
       ++calls_.back().faces;
-      drops_.emplace_back(at - 1, next);
+      dropLine(p, at - 1, e, n);
     } else {
       calls_.push_back(FaceCall{1, 0, 0});
       p[from] = '0';
       if (end > from + 1) drops_.emplace_back(from + 1, end);
+      openAt_ = end + endLength(p, e, n);
     }
-    openAt_ = next;
     return end;
   }
-  // A position (v) line (strict; `at`: the blank after "v"). The whole line goes when its numbers are surely finite
-  // (finiteNumbers) and it lies in these bytes: the parser makes no callback for it. Otherwise the parser reads it
-  // (its numbers elided when surely finite, see elide()) and its number is queued for nextKeptPosition.
+  // Drops the line [start, e] with its line end (e < p + n: LF, CR or CR LF); one that starts where the last run of
+  // faces ends (openAt_) lets the run go on past it.
+  void dropLine(const char* p, size_t start, const char* e, size_t n) {
+    const size_t next = size_t(e - p) + endLength(p, e, n);
+    drops_.emplace_back(start, next);
+    if (start == openAt_) openAt_ = next;
+  }
+  // A position (v) line (strict; `at`: the blank after "v"). A position is read for the finiteness of x, y, z
+  // (nonFinite), so it is left out only when its numbers are surely finite (finiteNumbers) and the line ends in
+  // these bytes: then the whole line goes (the parser makes no callback for it), or — its "v" in the previous
+  // chunk — its numbers go (the parser reads "v " as (0, 0, 0), finite too). Otherwise the parser reads it whole.
+  // A line the parser reads has its number queued for nextKeptPosition.
   void position(char* p, size_t at, size_t n) {
     const char* e = lineEnd(p, at + 1, n);
-    if (at >= 1 && e != p + n && finiteNumbers(p + at + 1, e)) {
-      const size_t next = size_t(e - p) + endLength(p, e, n);
-      drops_.emplace_back(at - 1, next);
-      if (at - 1 == openAt_) openAt_ = next;  // between two faces of a run: the run goes on
+    const bool finite = e != p + n && finiteNumbers(p + at + 1, e);
+    if (finite && at >= 1) {
+      dropLine(p, at - 1, e, n);
     } else {
       keptPositions_.push_back(positions_);
-      elide(p, at + 1, n, false);
+      if (finite && e != p + at + 1) drops_.emplace_back(at + 1, size_t(e - p));
     }
     ++positions_;
   }
@@ -324,9 +333,7 @@ class IndexScan {
     }
     texcoords_->insert(texcoords_->end(), uv, uv + 2);
     if (read) {
-      const size_t next = size_t(e - p) + endLength(p, e, n);
-      drops_.emplace_back(at - 2, next);
-      if (at - 2 == openAt_) openAt_ = next;  // between two faces of a run: the run goes on
+      dropLine(p, at - 2, e, n);
     } else {
       keptTexcoords_.push_back(texcoordCount() - 1);
     }
@@ -383,19 +390,15 @@ class IndexScan {
     faceIndices_.erase(faceIndices_.begin(), faceIndices_.begin() + ptrdiff_t(firstLeft));
     for (QueuedFace& f : faces_) f.first -= firstLeft;
   }
-  // A position (v) or normal (vn) line's numbers, bytes [from, end of line) (strict only): tinyobjloader's callback
-  // parser need not read them. A normal is only counted (UvParse), so its numbers go; a position is read for the
-  // finiteness of x, y, z (nonFinite), so its numbers go only when they are surely finite — every token of the
-  // form [+-](digits[.digits] | .digits)[(e|E)(+digits | -digits)], at most 15 integer digits, a positive exponent
-  // of one digit and a negative one of at most 3 (below 10^24: finite as float); the parser then reads "v " as
-  // (0, 0, 0), finite too. Not when the line ends beyond these bytes (it stays whole). The vertex counts (and so
-  // every index) are the same.
-  void elide(const char* p, size_t from, size_t n, bool normal) {
-    const char* b = p + from;
+  // A normal (vn) line's numbers, bytes [from, end of line) (strict only): a normal is only counted (UvParse), so
+  // they go and the parser reads "vn ". Not when the line ends beyond these bytes (it stays whole).
+  void elideNormal(const char* p, size_t from, size_t n) {
     const char* e = lineEnd(p, from, n);
-    if (e == p + n || e == b || !(normal || finiteNumbers(b, e))) return;
-    drops_.emplace_back(from, size_t(e - p));
+    if (e != p + n && e != p + from) drops_.emplace_back(from, size_t(e - p));
   }
+  // Whether a position line's numbers [p, end) are surely finite: every token of the form [+-](digits[.digits] |
+  // .digits)[(e|E)(+digits | -digits)], at most 15 integer digits, a positive exponent of one digit and a negative
+  // one of at most 3 (below 10^24: finite as float).
   static bool finiteNumbers(const char* p, const char* end) {
     // Most files: digits, '.', '-', '+', spaces and tabs only, no run of more than 15 digits — whatever the parser
     // makes of such tokens is below 10^15 (no exponent). Otherwise the token grammar below.
@@ -547,7 +550,7 @@ class IndexScan {
   uint64_t value_ = 0;
   char token_[40] = {};  // the digits of the last number (the first 40)
   uint32_t tokenLength_ = 0;
-  std::vector<std::pair<size_t, size_t>> drops_;  // byte ranges feed() removes (elide, takeFace, position)
+  std::vector<std::pair<size_t, size_t>> drops_;  // byte ranges feed() removes
   uint64_t positions_ = 0;                        // position lines so far (strict)
   size_t openAt_ = SIZE_MAX;  // where in these bytes a line must start to join the last run of faces
   // The faces takeFace read and the parser has not reached yet: their vertices, and per face its first vertex, count

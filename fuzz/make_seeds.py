@@ -171,7 +171,8 @@ if os.path.exists(oak):
 # arrays for mode 0 are written by fuzz/make_file_seeds.sh from a built tree. The version-7 sdag arrays
 # (array_sdag_v7_*: the local-leaves worked example, records with agreeing and disagreeing uniform children, random
 # 2- and 4-state arrays of levels 5..8 with shared subtrees) were serialized by the library of that version; the
-# older array_* seeds (array_sdag_v6_* and before) stay as inputs the parser refuses.
+# older array_* seeds (array_sdag_v6_* and before) stay as inputs the parser refuses. array_sdag_v8_leaf_transforms is
+# docs/encodings.md's worked example with leaf transforms (version 8), serialized by the library.
 for k in range(4):
     put("fuzz_encode", f"build_{k}", bytes([2]) + bytes(rng.randrange(256) for _ in range(60 + 40 * k)))
 put("fuzz_encode", "build_uniform", bytes([2]) + bytes([3, 0, 0x83, 0, 0x8B, 1, 200, 1, 0, 5, 2, 7, 3]))

@@ -387,10 +387,16 @@ struct SdagDirectory {
   uint8_t tier[kSdagRegions] = {};
   uint8_t mid[kSdagRegions] = {};
   uint8_t local[kSdagRegions] = {};  // 1: the long class of references into region k is local (version 6)
+  // xform[f - 1] = 1: every region reference into the leaf region of format f carries a leaf transform in its
+  // low 4 bits (version 8; bytes 100, 101 of the directory); [2], [3] are zero.
+  uint8_t xform[4] = {};
   friend bool operator==(const SdagDirectory& a, const SdagDirectory& b) noexcept {
     return std::memcmp(&a, &b, sizeof(SdagDirectory)) == 0;
   }
 };
+// A leaf handle (what the walk and its memo keep for a leaf): the leaf's byte offset in the data, with T in bits
+// 28..31 when the leaf region has transforms (an array with transforms has less than 2^28 data bytes).
+inline constexpr uint32_t kSdagLeafTShift = 28, kSdagLeafOffsetMask = (1u << kSdagLeafTShift) - 1u;
 // Reference number i of the n node children of a record whose references (with their flags) start at bit `pos`
 // (w, tier, mid: of the region referred to), and whether it is of the long class (width w: neither short nor mid),
 // which is a local reference (a byte offset from the record's first byte) when the region's local flag is set.
@@ -468,13 +474,19 @@ SOMM_ENCODE_INLINE uint32_t sdagChildAt(const SdagDirectory& dir, const uint8_t*
                                         uint32_t n, uint32_t i, uint32_t k, uint32_t leafBytes,
                                         uint64_t x) noexcept {
   const uint32_t w = dir.width[k], t = dir.tier[k], u = dir.mid[k];
-  if (leafBytes != 0 && dir.local[k] != 0) {
-    const SdagRefClass r = sdagLeafRefClass(p, pos, n, i, w, t, u, x);
-    return sdagPick(r.isLong, at - r.ref * leafBytes, dir.base[k] + r.ref * leafBytes);
+  if (leafBytes != 0) {  // a leaf handle (with transforms: the reference's low 4 bits are T)
+    const uint32_t sh = dir.xform[k / 6u] != 0 ? 4u : 0u;
+    if (dir.local[k] != 0) {
+      const SdagRefClass r = sdagLeafRefClass(p, pos, n, i, w, t, u, x);
+      return sdagPick(
+          r.isLong, at - r.ref * leafBytes,
+          (dir.base[k] + (r.ref >> sh) * leafBytes) | ((r.ref & ((1u << sh) - 1u)) << kSdagLeafTShift));
+    }
+    const SdagRefClass r = sdagRefClass(p, pos, n, i, w, t, u, x);
+    return (dir.base[k] + (r.ref >> sh) * leafBytes) | ((r.ref & ((1u << sh) - 1u)) << kSdagLeafTShift);
   }
   const SdagRefClass r = sdagRefClass(p, pos, n, i, w, t, u, x);
-  return sdagPick(r.isLong & dir.local[k], at + r.ref,
-                  dir.base[k] + r.ref * (leafBytes != 0 ? leafBytes : 1u));
+  return sdagPick(r.isLong & dir.local[k], at + r.ref, dir.base[k] + r.ref);
 }
 SOMM_ENCODE_INLINE uint32_t sdagChildAt(const SdagDirectory& dir, const uint8_t* p, uint32_t at, uint32_t pos,
                                         uint32_t n, uint32_t i, uint32_t k, uint32_t leafBytes) noexcept {
@@ -515,12 +527,36 @@ inline uint32_t sdagRefBits(const uint8_t* p, uint32_t pos, uint32_t n, uint32_t
   const uint32_t g = popcount64(getBits(p, pos + n, n - s));
   return n + (n - s) + (tier - 1u) * s + (mid - 1u) * g + w * (n - s - g);
 }
-// State `slot` (< 16) of a leaf (16 states, 2 or 4 bytes): one load and a shift.
+// Leaf transforms (version 8): T = p | c << 3 with p < 6 one of the six symmetries of the leaf's triangle (its
+// vertices permuted) and c a complement (every state xor 1: transparent <-> opaque, unknown-transparent <->
+// unknown-opaque). State i of a leaf reached with T is state j = nibble i of kSdagLeafPerm[p] of the stored 16
+// states, xor c. Row p maps micro-triangle i of the bird curve at level 2 to the one holding the barycentric
+// centroid of i with its weights permuted: (w0, w1, w2) -> (w0, w1, w2), (w0, w2, w1), (w1, w0, w2),
+// (w1, w2, w0), (w2, w0, w1), (w2, w1, w0) (tests/encode: EncodeDag.LeafSymmetriesFollowTheBirdCurve). Rows 6
+// and 7 are the identity (never stored: the array's validation refuses them).
+inline constexpr uint64_t kSdagLeafPerm[8] = {0xfedcba9876543210u, 0xa89bcfde46572310u, 0xfcde30127456b89au,
+                                              0xab9820134756cedfu, 0x0213efdc64578b9au, 0x03128a9b6754ecdfu,
+                                              0xfedcba9876543210u, 0xfedcba9876543210u};
+// State `slot` (< 16) of a leaf (16 states, 2 or 4 bytes) reached with transform t: one load and two shifts.
 template <Format F>
-SOMM_ENCODE_INLINE State sdagLeafState(const uint8_t* leaf, uint32_t slot) noexcept {
-  if constexpr (F == Format::TwoState) return State((load16(leaf) >> slot) & 1u);
-  return State((load32(leaf) >> (2u * slot)) & 3u);
+SOMM_ENCODE_INLINE State sdagLeafState(const uint8_t* leaf, uint32_t slot, uint32_t t = 0) noexcept {
+  const uint32_t j = uint32_t(kSdagLeafPerm[t & 7u] >> (4u * slot)) & 15u, c = t >> 3;
+  if constexpr (F == Format::TwoState) return State(((load16(leaf) >> j) & 1u) ^ c);
+  return State(((load32(leaf) >> (2u * j)) & 3u) ^ c);
 }
+// The state `slot` of the leaf with handle a (see kSdagLeafTShift).
+template <Format F>
+SOMM_ENCODE_INLINE State sdagHandleState(const uint8_t* data, const SdagDirectory& dir, uint32_t a,
+                                         uint32_t slot) noexcept {
+  const uint32_t xf = dir.xform[uint32_t(F) - 1u];
+  return sdagLeafState<F>(data + sdagPick(xf, a & kSdagLeafOffsetMask, a), slot,
+                          sdagPick(xf, a >> kSdagLeafTShift, 0u));
+}
+// A leaf reached by a walk step: where it is and its transform.
+struct SdagLeafAt {
+  const uint8_t* p;
+  uint32_t t;
+};
 // The leaf that node child number i (of n) of the height-2 record at p refers to, when the leaf region has short
 // references (F) and local leaves (H), with a mid class (G) or without (kMid): the leaf regions of the real arrays
 // measured (single models: F and H; whole scenes: F, G and H). The same reading as sdagLeafRefClass + sdagChildAt,
@@ -528,9 +564,8 @@ SOMM_ENCODE_INLINE State sdagLeafState(const uint8_t* leaf, uint32_t slot) noexc
 // fewer values alive; a local leaf returns early (a branch: fewer instructions, measured no slower than a select).
 // pos, x: where the flags start (F, G, H) and the record's bits from there.
 template <Format F, bool kMid>
-SOMM_ENCODE_INLINE const uint8_t* sdagLocalLeaf(const uint8_t* data, const SdagDirectory& dir,
-                                                const uint8_t* p, uint32_t n, uint32_t i, uint32_t pos,
-                                                uint64_t x) noexcept {
+SOMM_ENCODE_INLINE SdagLeafAt sdagLocalLeaf(const uint8_t* data, const SdagDirectory& dir, const uint8_t* p,
+                                            uint32_t n, uint32_t i, uint32_t pos, uint64_t x) noexcept {
   constexpr uint32_t leafBytes = F == Format::TwoState ? 2u : 4u, k = sdagRegion(F, 1);
   const uint32_t fl = uint32_t(x) & ((1u << n) - 1u), s = popcount16(fl & ((1u << i) - 1u));
   const uint32_t isShort = (fl >> i) & 1u, r = n - popcount16(fl), q = i - s;
@@ -546,11 +581,12 @@ SOMM_ENCODE_INLINE const uint8_t* sdagLocalLeaf(const uint8_t* data, const SdagD
   const uint32_t o = q - gb;
   const uint32_t hh = uint32_t(x >> (n + gl)) & ((1u << r2) - 1u), hb = popcount16(hh & ((1u << o) - 1u));
   if ((hh >> o) & 1u & ((isShort | isMid) ^ 1u))
-    return p - (popcount16(hh) - hb) * leafBytes;  // a local leaf
+    return {p - (popcount16(hh) - hb) * leafBytes, 0u};  // a local leaf
   const uint32_t sw = dir.tier[k] - 1u, mw = dir.mid[k] - 1u, w = dir.width[k];
   const uint32_t at = pos + n + gl + r2 + sw * s + (kMid ? mw * gb : 0u) + w * (o - hb);
   const uint32_t ref = getBits(p, at, isShort ? sw : (isMid ? mw : w));
-  return data + dir.base[k] + ref * leafBytes;
+  const uint32_t sh = dir.xform[uint32_t(F) - 1u] != 0 ? 4u : 0u;  // with transforms: T in the low 4 bits
+  return {data + dir.base[k] + (ref >> sh) * leafBytes, ref & ((1u << sh) - 1u)};
 }
 // The child that node child number i (of n) of the node record at p (height >= 3) refers to, when the child region
 // k has local references and no mid class, with short references (kTier: the flags F from bit pos, then the
@@ -574,16 +610,19 @@ SOMM_ENCODE_INLINE const uint8_t* sdagLocalNode(const uint8_t* data, const SdagD
 // The child that node child number i (of n) of the node record of height H >= 2 at p refers to (a leaf for H = 2):
 // the regions of the real arrays read with the references' start fixed (sdagLocalLeaf, sdagLocalNode), the others
 // by sdagChildAt. fx: where the flags start and the record's bits from there (sdagNodeFlags).
+// For H = 2 the leaf and its transform (SdagLeafAt).
 template <Format F, uint32_t H>
-SOMM_ENCODE_INLINE const uint8_t* sdagNodeChildOf(const uint8_t* data, const SdagDirectory& dir,
-                                                  const uint8_t* p, uint32_t n, uint32_t i,
-                                                  SdagFlags fx) noexcept {
+SOMM_ENCODE_INLINE auto sdagNodeChildOf(const uint8_t* data, const SdagDirectory& dir, const uint8_t* p,
+                                        uint32_t n, uint32_t i, SdagFlags fx) noexcept {
   constexpr uint32_t b = F == Format::TwoState ? 1u : 2u, k = sdagRegion(F, H - 1);
   if constexpr (H == 2) {
     if (dir.local[k] != 0 && dir.tier[k] != 0)
       return dir.mid[k] != 0 ? sdagLocalLeaf<F, true>(data, dir, p, n, i, fx.pos, fx.x)
                              : sdagLocalLeaf<F, false>(data, dir, p, n, i, fx.pos, fx.x);
-    return data + sdagChildAt(dir, p, uint32_t(p - data), fx.pos, n, i, k, 2u * b, fx.x);
+    const uint32_t a = sdagChildAt(dir, p, uint32_t(p - data), fx.pos, n, i, k, 2u * b, fx.x);
+    const uint32_t xf = dir.xform[uint32_t(F) - 1u];
+    return SdagLeafAt{data + sdagPick(xf, a & kSdagLeafOffsetMask, a),
+                      sdagPick(xf, a >> kSdagLeafTShift, 0u)};
   } else {
     if (dir.local[k] != 0 && dir.mid[k] == 0)
       return dir.tier[k] != 0 ? sdagLocalNode<true>(data, dir, p, n, i, k, fx.pos, fx.x)
@@ -601,9 +640,9 @@ SOMM_ENCODE_INLINE State sdagNodeStep(const uint8_t* data, const SdagDirectory& 
   const uint64_t y = load64(p + 2);
   if (!((m >> slot) & 1u)) return State(sdagUniformState(y, slot - below));
   const uint32_t n = popcount16(m);
-  const uint8_t* c = sdagNodeChildOf<F, H>(data, dir, p, n, below, sdagFlagsFrom(y, n));
+  const auto c = sdagNodeChildOf<F, H>(data, dir, p, n, below, sdagFlagsFrom(y, n));
   if constexpr (H == 2) {
-    return sdagLeafState<F>(c, index & 15u);
+    return sdagLeafState<F>(c.p, index & 15u, c.t);
   } else {
     return sdagNodeStep<F, H - 1>(data, dir, c, index);
   }
@@ -618,14 +657,21 @@ SOMM_ENCODE_INLINE uint32_t sdagNodeChild(const uint8_t* data, const SdagDirecto
   const uint64_t y = load64(p + 2);
   if (!((m >> slot) & 1u)) return sdagUniformState(y, slot - below);
   const uint32_t n = popcount16(m);
-  return uint32_t(sdagNodeChildOf<F, H>(data, dir, p, n, below, sdagFlagsFrom(y, n)) - data);
+  const auto c = sdagNodeChildOf<F, H>(data, dir, p, n, below, sdagFlagsFrom(y, n));
+  if constexpr (H == 2) {
+    return uint32_t(c.p - data) | (c.t << kSdagLeafTShift);  // a leaf handle
+  } else {
+    return uint32_t(c - data);
+  }
 }
+// The walk from the record of height h at byte offset a (h = 1: a leaf handle).
 template <Format F>
-inline State sdagNodeWalk(const uint8_t* data, const SdagDirectory& dir, const uint8_t* p, uint32_t h,
+inline State sdagNodeWalk(const uint8_t* data, const SdagDirectory& dir, uint32_t a, uint32_t h,
                           uint32_t index) noexcept {
+  const uint8_t* p = data + a;
   switch (h) {
     case 1:
-      return sdagLeafState<F>(p, index & 15u);
+      return sdagHandleState<F>(data, dir, a, index & 15u);
     case 2:
       return sdagNodeStep<F, 2>(data, dir, p, index);
     case 3:
@@ -676,7 +722,7 @@ inline State sdagStateAs(const uint8_t* data, const SdagDirectory& dir, uint32_t
     if (child < 4) return State(child);
     offset = child;
   }
-  return sdagNodeWalk<F>(data, dir, data + offset, level >> 1, index);
+  return sdagNodeWalk<F>(data, dir, offset, level >> 1, index);
 }
 // A per-thread memo of the triangles' index-buffer values (256 entries, direct mapped by triangle): rays next to
 // each other hit the same triangles, so the packed index buffer and the descriptor are read once per triangle, not
@@ -879,9 +925,9 @@ SOMM_ENCODE_INLINE State sdagMemoWalk(const uint8_t* data, const SdagDirectory& 
                              ? d.at[g]
                              : sdagDeepMiss<F>(data, dir, e, d, index);
       if (a < 4) return State(a);
-      if (hc == 1) return sdagLeafState<F>(data + a, index & 15u);
+      if (hc == 1) return sdagHandleState<F>(data, dir, a, index & 15u);
       if (hc == 2) return sdagNodeStep<F, 2>(data, dir, data + a, index);
-      return sdagNodeWalk<F>(data, dir, data + a, hc, index);
+      return sdagNodeWalk<F>(data, dir, a, hc, index);
     }
     if (h >= 2) {
       SdagMemo::Grand& t = sdagMemo().grand[e.grand];
@@ -912,8 +958,8 @@ SOMM_ENCODE_INLINE State sdagMemoWalk(const uint8_t* data, const SdagDirectory& 
       if (a < 4) return State(a);
       if (h == 3) return sdagNodeStep<F, 2>(data, dir, data + a, index);
       if (h == 4) return sdagNodeStep<F, 3>(data, dir, data + a, index);
-      if (h == 2) return sdagLeafState<F>(data + a, index & 15u);
-      return sdagNodeWalk<F>(data, dir, data + a, h - 1u, index);
+      if (h == 2) return sdagHandleState<F>(data, dir, a, index & 15u);
+      return sdagNodeWalk<F>(data, dir, a, h - 1u, index);
     }
   }
   const uint32_t at = ((e.topValid >> slot) & 1u) ? e.top[slot] : sdagMemoTop<F>(data, dir, e, slot, index);
@@ -922,7 +968,7 @@ SOMM_ENCODE_INLINE State sdagMemoWalk(const uint8_t* data, const SdagDirectory& 
   // registers: levels 8 and 10 took 2 % more instructions.)
   if (h == 3) return sdagNodeStep<F, 3>(data, dir, data + at, index);
   if (h == 4) return sdagNodeStep<F, 4>(data, dir, data + at, index);
-  return sdagNodeWalk<F>(data, dir, data + at, h, index);
+  return sdagNodeWalk<F>(data, dir, at, h, index);
 }
 
 inline State sdagState(const uint8_t* data, const SdagDirectory& dir, uint32_t offset, uint32_t level,

@@ -7,6 +7,7 @@
 #include <map>
 #include <tuple>
 #include <unordered_map>
+#include <unordered_set>
 
 namespace somm {
 
@@ -535,10 +536,12 @@ struct DagRoot {
   uint8_t byte = 0;                    // levels 0, 1
   uint32_t id = 0;                     // even levels >= 2: record id in region (format, L/2)
   std::array<uint32_t, 4> children{};  // odd levels >= 3: child codes (height (L-1)/2)
+  bool interned = false;               // in the DAG (internMap), not a map kept flat / dfs / rank
 };
 
 DagRoot internMap(const Micromap& m, DagTables& tables) {
   DagRoot r;
+  r.interned = true;
   r.level = m.level();
   r.format = m.format();
   const uint32_t b = bitsPerState(m.format());
@@ -596,6 +599,7 @@ struct SdagLayout {
   std::array<uint8_t, kSdagRegions> tier{};
   std::array<uint8_t, kSdagRegions> mid{};
   std::array<uint8_t, kSdagRegions> local{};
+  std::array<uint8_t, 2> xform{};  // per format: the leaf region's references carry a transform (version 8)
 
   bool localRec(uint32_t k, uint32_t id) const { return local[k] != 0 && isLocal[k][id] != 0; }
   bool isShort(uint32_t k, uint32_t id) const {
@@ -751,10 +755,101 @@ void placeRegion(SdagLayout& l, uint32_t k, const std::vector<uint64_t>& uses,
   l.bytes[k] = off;
   const uint32_t wr = order.empty() ? 0 : bitsFor(uint64_t(l.ref[k][order.back()]) + 1);
   l.local[k] = withLocal ? 1 : 0;
+  if (h == 1) l.xform[k / 6] = 0;
   l.width[k] = uint8_t(wr);
   std::tie(l.tier[k], l.mid[k]) = !withLocal ? bestTiers(order, l.ref[k], uses, wr)
                                   : h == 1   ? bestTiersLeafLocal(order, l.ref[k], uses, wr, localUses)
                                              : bestTiersLocal(order, l.ref[k], uses, wr, localUses);
+}
+
+// Leaf transforms (version 8, include/somm/encode.h kSdagLeafPerm): the leaf (2-bit states, packed) reached from
+// stored leaf v with transform t.
+uint32_t applyLeafTransform(uint32_t v, uint32_t t) {
+  const uint64_t perm = kSdagLeafPerm[t & 7u];
+  uint32_t o = 0;
+  for (uint32_t i = 0; i < 16; ++i) o |= ((v >> (2u * ((perm >> (4u * i)) & 15u))) & 3u) << (2u * i);
+  return o ^ ((t >> 3) * 0x55555555u);
+}
+constexpr uint32_t kLeafTransforms[12] = {0, 1, 2, 3, 4, 5, 8, 9, 10, 11, 12, 13};
+// The smallest leaf reachable from v by a transform: equal for the leaves one transform apart (the transforms
+// are a group: the six symmetries of the triangle and the complement).
+uint32_t canonicalLeaf(uint32_t v) {
+  uint32_t best = v;
+  for (uint32_t t : kLeafTransforms) best = std::min(best, applyLeafTransform(v, t));
+  return best;
+}
+
+// Places leaf region k with transforms (version 8): the leaves one transform apart form a class, stored once (the
+// member with the most uses, ties: the first); a reference to a member is (the class's number << 4) | T, T the
+// transform from the stored leaf to the member. With `withLocal`, a class used once (from a node record) is a
+// local leaf. Classes by use (ties: first appearance); the leaves that are level-2 maps' roots (the descriptor
+// holds their byte offset: no transform) are classes of their own. canon: canonicalLeaf of each leaf.
+void placeLeafClasses(SdagLayout& l, uint32_t k, const std::vector<Key>& recs,
+                      const std::vector<uint32_t>& canon, const std::vector<uint64_t>& uses,
+                      const std::vector<uint64_t>& rootUses, const std::vector<uint8_t>& mapRoot,
+                      bool withLocal) {
+  const size_t count = recs.size();
+  std::vector<uint32_t> cls(count), rep;
+  std::vector<uint64_t> cUses, cRoot;
+  std::unordered_map<uint32_t, uint32_t> byCanon;
+  for (uint32_t id = 0; id < count; ++id) {
+    uint32_t c = uint32_t(rep.size());
+    if (!mapRoot[id]) c = byCanon.try_emplace(canon[id], c).first->second;
+    if (c == rep.size()) {
+      rep.push_back(id);
+      cUses.push_back(0);
+      cRoot.push_back(0);
+    }
+    cls[id] = c;
+    cUses[c] += uses[id];
+    cRoot[c] += rootUses[id] + mapRoot[id];
+    if (uses[id] > uses[rep[c]]) rep[c] = id;
+  }
+  l.isLocal[k].assign(count, 0);
+  l.ref[k].assign(count, 0);
+  uint64_t localUses = 0;
+  std::vector<uint32_t> region;
+  for (uint32_t c = 0; c < rep.size(); ++c) {
+    if (withLocal && cUses[c] == 1 && cRoot[c] == 0) continue;
+    region.push_back(c);
+  }
+  std::stable_sort(region.begin(), region.end(), [&](uint32_t x, uint32_t y) { return cUses[x] > cUses[y]; });
+  std::vector<uint32_t> number(rep.size(), ~0u);
+  auto& order = l.order[k];
+  order.clear();
+  for (uint32_t i = 0; i < region.size(); ++i) {
+    number[region[i]] = i;
+    order.push_back(rep[region[i]]);
+  }
+  uint64_t maxRef = 0;
+  std::vector<uint32_t> members;  // the region's members, by reference
+  for (uint32_t id = 0; id < count; ++id) {
+    const uint32_t c = cls[id];
+    if (number[c] == ~0u) {
+      l.isLocal[k][id] = 1;
+      localUses += uses[id];
+      continue;
+    }
+    const uint32_t stored = recs[rep[c]][0];
+    uint32_t t = 0;
+    for (uint32_t x : kLeafTransforms)
+      if (applyLeafTransform(stored, x) == recs[id][0]) {
+        t = x;
+        break;
+      }
+    l.ref[k][id] = number[c] << 4 | t;
+    maxRef = std::max<uint64_t>(maxRef, l.ref[k][id]);
+    members.push_back(id);
+  }
+  std::sort(members.begin(), members.end(),
+            [&](uint32_t x, uint32_t y) { return l.ref[k][x] < l.ref[k][y]; });
+  l.bytes[k] = uint64_t(order.size()) * (k < 6 ? 2u : 4u);
+  const uint32_t wr = members.empty() ? 0 : bitsFor(maxRef + 1);
+  l.local[k] = withLocal ? 1 : 0;
+  l.width[k] = uint8_t(wr);
+  l.xform[k / 6] = 1;
+  std::tie(l.tier[k], l.mid[k]) = withLocal ? bestTiersLeafLocal(members, l.ref[k], uses, wr, localUses)
+                                            : bestTiers(members, l.ref[k], uses, wr);
 }
 
 // The records of region k+1 (parents of region k's): their own bytes, and the local references of their local
@@ -780,7 +875,7 @@ std::pair<uint64_t, uint64_t> placeParents(SdagLayout& l, uint32_t k, const DagT
   return {reach, total};
 }
 
-SdagLayout sdagLayout(const DagTables& tables, const std::vector<DagRoot>& roots) {
+SdagLayout sdagLayout(const DagTables& tables, const std::vector<DagRoot>& roots, bool allowXform) {
   // References to each record: from the records one height up and from the 4-way roots.
   std::array<std::vector<uint64_t>, kSdagRegions> uses, rootUses;
   for (uint32_t k = 0; k < kSdagRegions; ++k) {
@@ -840,6 +935,40 @@ SdagLayout sdagLayout(const DagTables& tables, const std::vector<DagRoot>& roots
       }
       if (h == 6) {
         placeRegion(l, k, uses[k], candidate, false);
+        continue;
+      }
+      if (h == 1) {
+        // Leaves: in the region, local, and (version 8) with transforms with or without local leaves; the
+        // smallest parents (records of height 2 and 4-way roots) plus leaves wins, ties the earlier.
+        std::vector<uint32_t> canon(recs.size());
+        std::vector<uint8_t> mapRoot(recs.size(), 0);
+        for (const DagRoot& r : roots)
+          if (r.interned && r.level == 2 && r.format == f) mapRoot[r.id] = 1;
+        std::unordered_set<uint32_t> classes;
+        for (size_t id = 0; id < recs.size(); ++id) {
+          canon[id] = canonicalLeaf(recs[id][0]);
+          classes.insert(mapRoot[id] ? ~uint32_t(id) : canon[id]);
+        }
+        const bool xform = allowXform && classes.size() < recs.size();
+        auto place = [&](int variant) {
+          if (variant < 2)
+            placeRegion(l, k, uses[k], candidate, variant == 1);
+          else
+            placeLeafClasses(l, k, recs, canon, uses[k], rootUses[k], mapRoot, variant == 3);
+          uint64_t locals = 0;
+          for (uint8_t x : l.isLocal[k]) locals += x;
+          return placeParents(l, k, tables).second + rootBytes(l, k) + l.bytes[k] + locals * 2 * b;
+        };
+        int best = 0;
+        uint64_t bestBytes = place(0);
+        for (int v = 1; v < 4; ++v) {
+          if ((v == 1 && !any) || (v >= 2 && !xform)) continue;
+          if (const uint64_t bytes = place(v); bytes < bestBytes) {
+            best = v;
+            bestBytes = bytes;
+          }
+        }
+        place(best);
         continue;
       }
       // Without local records, then with (the local width grown until it reaches every local reference);
@@ -947,10 +1076,10 @@ void putSdagSubtree(BitWriter& out, const DagTables& tables, const SdagLayout& l
 
 // Emits an sdag data buffer: directory, regions, then the other area (odd and level-0/1 roots, blobs of the
 // non-DAG maps) in map order. offsets[m] = the map's descriptor offset.
-std::vector<uint8_t> emitSdag(const DagTables& tables, const std::vector<DagRoot>& roots,
-                              const std::vector<DagMapOut>& kinds, std::vector<uint32_t>& offsets,
-                              SdagDirectory& dir) {
-  const SdagLayout l = sdagLayout(tables, roots);
+std::vector<uint8_t> emitSdagWith(const DagTables& tables, const std::vector<DagRoot>& roots,
+                                  const std::vector<DagMapOut>& kinds, std::vector<uint32_t>& offsets,
+                                  SdagDirectory& dir, bool allowXform) {
+  const SdagLayout l = sdagLayout(tables, roots, allowXform);
   BitWriter out;
   uint64_t base = kSdagDirectoryBytes;
   for (uint32_t k = 0; k < kSdagRegions; ++k) {
@@ -962,12 +1091,14 @@ std::vector<uint8_t> emitSdag(const DagTables& tables, const std::vector<DagRoot
     base += l.bytes[k];
   }
   dir.base[kSdagRegions] = uint32_t(base);
+  dir.xform[0] = l.xform[0];
+  dir.xform[1] = l.xform[1];
   for (uint32_t k = 0; k <= kSdagRegions; ++k) out.put(dir.base[k], 32);
   for (uint32_t k = 0; k < kSdagRegions; ++k) out.put(dir.width[k], 8);
   for (uint32_t k = 0; k < kSdagRegions; ++k) out.put(dir.tier[k], 8);
   for (uint32_t k = 0; k < kSdagRegions; ++k) out.put(dir.mid[k], 8);
   for (uint32_t k = 0; k < kSdagRegions; ++k) out.put(dir.local[k], 8);
-  out.put(0, 32);
+  for (uint32_t f = 0; f < 4; ++f) out.put(dir.xform[f], 8);
   std::array<std::vector<uint32_t>, kSdagRegions> at;
   for (uint32_t k = 0; k < kSdagRegions; ++k) at[k].assign(tables.t[k].records.size(), 0);
   for (uint32_t k = 0; k < kSdagRegions; ++k)
@@ -993,6 +1124,19 @@ std::vector<uint8_t> emitSdag(const DagTables& tables, const std::vector<DagRoot
     }
   }
   return out.bytes();
+}
+// Leaf transforms need leaf handles of 28-bit offsets (include/somm/encode.h kSdagLeafTShift): a data buffer of
+// 2^28 bytes or more is emitted again without them.
+std::vector<uint8_t> emitSdag(const DagTables& tables, const std::vector<DagRoot>& roots,
+                              const std::vector<DagMapOut>& kinds, std::vector<uint32_t>& offsets,
+                              SdagDirectory& dir) {
+  dir = SdagDirectory{};
+  std::vector<uint8_t> data = emitSdagWith(tables, roots, kinds, offsets, dir, true);
+  if ((dir.xform[0] | dir.xform[1]) != 0 && data.size() >= (uint64_t(1) << kSdagLeafTShift)) {
+    dir = SdagDirectory{};
+    data = emitSdagWith(tables, roots, kinds, offsets, dir, false);
+  }
+  return data;
 }
 
 // csm: the uniform non-transparent records every record (and root) refers to, then absolute offsets bottom-up.
@@ -1077,9 +1221,13 @@ State sdagUniformChild(const uint8_t* p, uint32_t slots, uint32_t u) {
 }
 
 void sdagFill(const uint8_t* data, const SdagDirectory& dir, const uint8_t* p, Format f, uint32_t h,
-              uint32_t slots, uint64_t start, Micromap& out) {
-  if (h == 0) {  // a leaf's states (slots = 16) or a level-0/1 root byte
-    for (uint32_t s = 0; s < slots; ++s) out.set(uint32_t(start + s), getValue(p, 0, f, s));
+              uint32_t slots, uint64_t start, Micromap& out, uint32_t t = 0) {
+  if (h == 0) {  // a leaf's states (slots = 16, reached with transform t) or a level-0/1 root byte
+    for (uint32_t s = 0; s < slots; ++s)
+      out.set(uint32_t(start + s), slots == 16
+                                       ? (f == Format::TwoState ? sdagLeafState<Format::TwoState>(p, s, t)
+                                                                : sdagLeafState<Format::FourState>(p, s, t))
+                                       : getValue(p, 0, f, s));
     return;
   }
   const uint32_t m = slots == 16 ? load16(p) : p[0] & 15u;
@@ -1088,10 +1236,16 @@ void sdagFill(const uint8_t* data, const SdagDirectory& dir, const uint8_t* p, F
   uint32_t ui = 0, ni = 0;
   for (uint32_t s = 0; s < slots; ++s) {
     if ((m >> s) & 1u) {
-      const uint8_t* c = data + sdagChildAt(dir, p, uint32_t(p - data), sdagFlagsPos(p, slots, n), n, ni++, k,
-                                            h == 1 ? 2 * bitsPerState(f) : 0u);
+      uint32_t a = sdagChildAt(dir, p, uint32_t(p - data), sdagFlagsPos(p, slots, n), n, ni++, k,
+                               h == 1 ? 2 * bitsPerState(f) : 0u);
+      uint32_t t = 0;
+      if (h == 1 && dir.xform[uint32_t(f) - 1u] != 0) {  // a leaf handle with its transform
+        t = a >> kSdagLeafTShift;
+        a &= kSdagLeafOffsetMask;
+      }
+      const uint8_t* c = data + a;
       if (h == 1)
-        sdagFill(data, dir, c, f, 0, 16, start + s * span, out);
+        sdagFill(data, dir, c, f, 0, 16, start + s * span, out, t);
       else
         sdagFill(data, dir, c, f, h - 1, 16, start + s * span, out);
     } else {
@@ -1138,6 +1292,8 @@ struct SdagChecker {
       if (r.ref < bytes || at + r.ref >= end()) return false;
       return h == 1 ? end() - (at + r.ref) >= leaf : node(f, h, at + r.ref);
     }
+    if (h == 1 && dir.xform[uint32_t(f) - 1u] != 0)  // a leaf number and a transform (p < 6)
+      return (r.ref >> 4) < regionBytes(k) / leaf && (r.ref & 7u) < 6;
     if (h == 1) return r.ref < regionBytes(k) / leaf;
     return r.ref < regionBytes(k) && node(f, h, dir.base[k] + uint64_t(r.ref));
   }
@@ -1289,6 +1445,9 @@ constexpr uint32_t kMagic = 0x434e4553;  // "SENC"
 constexpr uint8_t kVersion = 1;          // arrays without the sdag directory
 // Arrays with the sdag directory (104 bytes, local references, the node records' uniform-states field).
 constexpr uint8_t kVersionDirectory = 7;
+// The same with leaf transforms (the directory's bytes 100, 101; written only when a leaf region has them, so an
+// array without them is byte-identical to version 7).
+constexpr uint8_t kVersionTransforms = 8;
 // Retired layouts of arrays with the sdag directory: refused with what they were.
 struct RetiredVersion {
   uint8_t version;
@@ -1362,7 +1521,7 @@ SdagBuild buildSdag(const std::vector<Micromap>& maps, std::vector<encode::DagMa
       tables.created = &created[i];
       roots.push_back(encode::internMap(maps[i], tables));
     }
-    const encode::SdagLayout l = encode::sdagLayout(tables, roots);
+    const encode::SdagLayout l = encode::sdagLayout(tables, roots, true);
     for (size_t i = 0; i < maps.size(); ++i) {
       uint64_t own = encode::sdagRootBytes(roots[i], l);
       for (const auto& [k, id] : created[i]) own += encode::sdagRecordBytes(k, id, tables, l);
@@ -1586,7 +1745,9 @@ std::vector<uint8_t> EncodedArray::serialize() const {
   std::vector<uint8_t> out;
   out.reserve(byteSize());
   putU32(out, kMagic);
-  out.push_back(hasDirectory_ ? kVersionDirectory : kVersion);
+  out.push_back(!hasDirectory_                         ? kVersion
+                : (dir_.xform[0] | dir_.xform[1]) != 0 ? kVersionTransforms
+                                                       : kVersionDirectory);
   out.push_back(uint8_t(encoding_));
   out.push_back(hasDirectory_ ? uint8_t(indexBits_) : uint8_t(indexType_));
   out.push_back(hasDirectory_ ? (indexGroups_ != 0 ? 3 : 1) : 0);
@@ -1625,7 +1786,7 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
       return makeError(ErrorCode::UnsupportedFormat,
                        prefix + "encoded array version " + std::to_string(r.version) + " (" + r.what +
                            ") is no longer supported (encode the micromaps again)");
-  if (p[4] != kVersion && p[4] != kVersionDirectory)
+  if (p[4] != kVersion && p[4] != kVersionDirectory && p[4] != kVersionTransforms)
     return makeError(ErrorCode::UnsupportedFormat,
                      prefix + "encoded array version " + std::to_string(p[4]) + " is not supported");
   if (p[4] == kVersion && p[7] == 1)
@@ -1633,10 +1794,10 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
                      prefix +
                          "encoded array version 1 with the old sdag layout is no longer supported "
                          "(encode the micromaps again)");
-  if (p[4] == kVersionDirectory && (p[7] & 1) != 1)
-    return bad("encoded array version 7 without the sdag directory");
+  if ((p[4] == kVersionDirectory || p[4] == kVersionTransforms) && (p[7] & 1) != 1)
+    return bad("encoded array version " + std::to_string(p[4]) + " without the sdag directory");
   if (p[5] >= kEncodingCount) return bad("unknown encoding id " + std::to_string(p[5]));
-  const bool packed = p[4] == kVersionDirectory;
+  const bool packed = p[4] == kVersionDirectory || p[4] == kVersionTransforms;
   if (!packed && p[6] != 2 && p[6] != 4) return bad("index size must be 2 or 4 bytes");
   const Encoding enc = Encoding(p[5]);
   if (p[7] > 3 || (p[7] & 1) != (enc == Encoding::Sdag || (enc == Encoding::Hybrid && (p[7] & 1))))
@@ -1729,7 +1890,14 @@ Result<EncodedArray> EncodedArray::parse(Span<const uint8_t> bytes, std::string_
     for (uint32_t k = 0; k < encode::kSdagRegions; ++k) out.dir_.tier[k] = data[64 + k];
     for (uint32_t k = 0; k < encode::kSdagRegions; ++k) out.dir_.mid[k] = data[76 + k];
     for (uint32_t k = 0; k < encode::kSdagRegions; ++k) out.dir_.local[k] = data[88 + k];
-    if (getU32(data + 100) != 0) return bad("sdag directory's reserved bytes are not zero");
+    for (uint32_t f = 0; f < 4; ++f) out.dir_.xform[f] = data[100 + f];
+    if (p[4] == kVersionDirectory && getU32(data + 100) != 0)
+      return bad("sdag directory's reserved bytes are not zero");
+    if (p[4] == kVersionTransforms &&
+        (data[100] > 1 || data[101] > 1 || (data[100] | data[101]) == 0 || data[102] != 0 || data[103] != 0))
+      return bad("sdag directory's leaf transform flags are not 0 or 1 (one of them 1, bytes 102, 103 zero)");
+    if ((data[100] | data[101]) != 0 && dataBytes >= (uint64_t(1) << encode::kSdagLeafTShift))
+      return bad("sdag leaf transforms in a data buffer of 2^28 bytes or more");
     if (out.dir_.base[0] != encode::kSdagDirectoryBytes || out.dir_.base[encode::kSdagRegions] > dataBytes)
       return bad("sdag directory regions exceed the data buffer");
     for (uint32_t k = 0; k < encode::kSdagRegions; ++k) {

@@ -612,16 +612,17 @@ TEST(EncodeDag, WorkedExampleTieredReferences) {
 }
 
 // docs/encodings.md's worked example with local leaves: slots 0..12 hold the leaf 0x00ff, slots 13, 14, 15 the
-// leaves 0x0f0f, 0x3333, 0x5555, each used once: they are stored right before the root and take no reference bits.
+// leaves 0x0f00, 0x3333, 0x5555, each used once: they are stored right before the root and take no reference bits.
+// (No two of them are one leaf transform apart.)
 TEST(EncodeDag, WorkedExampleLocalLeaves) {
   Micromap m(4, Format::TwoState);
-  const uint32_t leaf[4] = {0x00ff, 0x0f0f, 0x3333, 0x5555};
+  const uint32_t leaf[4] = {0x00ff, 0x0f00, 0x3333, 0x5555};
   for (uint32_t i = 0; i < 256; ++i) {
     const uint32_t slot = i >> 4, v = leaf[slot < 13 ? 0 : slot - 12];
     m.set(i, (v >> (i & 15)) & 1u ? State::Opaque : State::Transparent);
   }
   const EncodedArray sdag = EncodedArray::build(arrayOf({m}), Encoding::Sdag).value();
-  const std::vector<uint8_t> regions{0xff, 0x00, 0x0f, 0x0f, 0x33, 0x33, 0x55, 0x55, 0xff, 0xff, 0x00, 0xe0};
+  const std::vector<uint8_t> regions{0xff, 0x00, 0x00, 0x0f, 0x33, 0x33, 0x55, 0x55, 0xff, 0xff, 0x00, 0xe0};
   ASSERT_EQ(sdag.dataBytes(), 116u);
   EXPECT_EQ(std::vector<uint8_t>(sdag.data().begin() + 104, sdag.data().begin() + 116), regions);
   const encode::SdagDirectory& dir = sdag.directory();
@@ -635,7 +636,7 @@ TEST(EncodeDag, WorkedExampleLocalLeaves) {
   for (uint32_t k = 1; k < encode::kSdagRegions; ++k) EXPECT_EQ(dir.local[k], 0u);
   EXPECT_EQ(sdag.data()[88], 1u);
   EXPECT_EQ(sdag.maps()[0].offset, 112u);
-  EXPECT_EQ(sdag.state(0, 213), State::Transparent);  // local leaf 0 of 3: 3·2 bytes before the root, 0x0f0f
+  EXPECT_EQ(sdag.state(0, 213), State::Transparent);  // local leaf 0 of 3: 3·2 bytes before the root, 0x0f00
   EXPECT_EQ(sdag.state(0, 100), State::Opaque);       // leaf 0 (0 bits) of region (1, 1)
   EXPECT_EQ(sdag.state(0, 250), State::Opaque);       // local leaf 2: 2 bytes before the root, 0x5555
   for (uint32_t i = 0; i < 256; ++i) EXPECT_EQ(sdag.state(0, i), m.get(i)) << i;
@@ -648,6 +649,76 @@ TEST(EncodeDag, WorkedExampleLocalLeaves) {
   bad[data + 112 + 2] = 0x0f;
   const auto r = EncodedArray::parse(bad);
   EXPECT_FALSE(r);
+}
+
+// docs/encodings.md's worked example with leaf transforms: one level-4 2-state map whose 16 slots hold, in turn,
+// the six leaves one transform apart from 0x00ff (0x00ff, 0xff00, 0x0f0f, 0xf0f0, 0x0ff0, 0xf00f, then again):
+// one stored leaf, and each reference carries its transform in its low 4 bits.
+TEST(EncodeDag, WorkedExampleLeafTransforms) {
+  Micromap m(4, Format::TwoState);
+  const uint32_t leaf[6] = {0x00ff, 0xff00, 0x0f0f, 0xf0f0, 0x0ff0, 0xf00f};
+  for (uint32_t i = 0; i < 256; ++i)
+    m.set(i, (leaf[(i >> 4) % 6] >> (i & 15)) & 1u ? State::Opaque : State::Transparent);
+  const EncodedArray sdag = EncodedArray::build(arrayOf({m}), Encoding::Sdag).value();
+  // Region (1, 1): the leaf 0x00ff; the root at 106: M = 0xffff, then 16 references of 4 bits (leaf 0, T):
+  // 0x00ff T 0, 0xff00 T 8 (the complement), 0x0f0f T 12 (p 4, complemented), 0xf0f0 T 4, 0x0ff0 T 2, 0xf00f T 10.
+  const std::vector<uint8_t> regions{0xff, 0x00, 0xff, 0xff, 0x80, 0x4c, 0xa2, 0x80, 0x4c, 0xa2, 0x80, 0x4c};
+  ASSERT_EQ(sdag.dataBytes(), 116u);
+  EXPECT_EQ(std::vector<uint8_t>(sdag.data().begin() + 104, sdag.data().begin() + 116), regions);
+  const encode::SdagDirectory& dir = sdag.directory();
+  EXPECT_EQ(dir.base[1], 106u);
+  EXPECT_EQ(dir.width[0], 4u);
+  EXPECT_EQ(dir.tier[0] + dir.mid[0] + dir.local[0], 0u);
+  EXPECT_EQ(dir.xform[0], 1u);
+  EXPECT_EQ(dir.xform[1], 0u);
+  EXPECT_EQ(sdag.data()[100], 1u);
+  EXPECT_EQ(sdag.maps()[0].offset, 106u);
+  EXPECT_EQ(sdag.state(0, 37), State::Transparent);  // slot 2, T 12: state P4[5] = 5 of 0x00ff (1), xor 1
+  EXPECT_EQ(sdag.state(0, 40), State::Opaque);       // slot 2, state 8: P4[8] = 12 of 0x00ff (0), xor 1
+  EXPECT_EQ(sdag.state(0, 17), State::Transparent);  // slot 1, T 8: state 1 of 0x00ff, xor 1
+  // Without transforms: six leaves of 2 bytes and 3-bit references (the root 8 bytes): 124 data bytes.
+  for (uint32_t i = 0; i < 256; ++i) EXPECT_EQ(sdag.state(0, i), m.get(i)) << i;
+  const std::vector<uint8_t> bytes = sdag.serialize();
+  EXPECT_EQ(bytes[4], 8u);  // version 8: a leaf region with transforms
+  EXPECT_EQ(EncodedArray::parse(bytes).value(), sdag);
+  // A transform with p = 6 or 7 is refused; so is a transform flag above 1, or version 8 without one.
+  const size_t data = 20 + sdag.indexBufferBytes() + 8 * sdag.mapCount();
+  std::vector<uint8_t> bad = bytes;
+  bad[data + 108] = 0x86;  // slot 0: T 6
+  EXPECT_FALSE(EncodedArray::parse(bad));
+  bad = bytes;
+  bad[data + 100] = 2;
+  EXPECT_FALSE(EncodedArray::parse(bad));
+  bad[data + 100] = 0;
+  EXPECT_FALSE(EncodedArray::parse(bad));
+}
+
+// The leaf transforms' permutations are the bird curve's: micro-triangle i of a level-2 triangle goes to the one
+// holding its centroid with the barycentric weights permuted, and the six form a group.
+TEST(EncodeDag, LeafSymmetriesFollowTheBirdCurve) {
+  const int order[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+  uint32_t perm[6][16];
+  for (uint32_t p = 0; p < 6; ++p)
+    for (uint32_t i = 0; i < 16; ++i) {
+      const MicroTriangle t = indexToMicroTriangle(i, 2);
+      const float cu = float(t.v[0].u + t.v[1].u + t.v[2].u) / 12.0f;
+      const float cv = float(t.v[0].v + t.v[1].v + t.v[2].v) / 12.0f;
+      const float w[3] = {1.0f - cu - cv, cu, cv};
+      perm[p][i] = baryToIndex(w[order[p][1]], w[order[p][2]], 2);
+      EXPECT_EQ(uint32_t(encode::kSdagLeafPerm[p] >> (4 * i)) & 15u, perm[p][i]) << p << " " << i;
+    }
+  EXPECT_EQ(encode::kSdagLeafPerm[6], encode::kSdagLeafPerm[0]);
+  EXPECT_EQ(encode::kSdagLeafPerm[7], encode::kSdagLeafPerm[0]);
+  for (uint32_t a = 0; a < 6; ++a)
+    for (uint32_t b = 0; b < 6; ++b) {
+      bool found = false;
+      for (uint32_t c = 0; c < 6 && !found; ++c) {
+        bool same = true;
+        for (uint32_t i = 0; i < 16; ++i) same = same && perm[a][perm[b][i]] == perm[c][i];
+        found = same;
+      }
+      EXPECT_TRUE(found) << a << " " << b;
+    }
 }
 
 // docs/encodings.md's third worked example: 4-state uniform children take 1 bit; a uniformly unknown child is a

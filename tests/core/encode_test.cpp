@@ -559,19 +559,31 @@ TEST(EncodeDag, WorkedExampleLayouts) {
   }
 }
 
+// A level-4 2-state map whose slot s (micro-triangles 16s .. 16s + 15) holds the 16-bit leaf leafOf(s): the
+// worked examples of docs/encodings.md.
+template <class LeafOf>
+Micromap levelFourMap(LeafOf leafOf) {
+  Micromap m(4, Format::TwoState);
+  for (uint32_t i = 0; i < 256; ++i)
+    m.set(i, (leafOf(i >> 4) >> (i & 15)) & 1u ? State::Opaque : State::Transparent);
+  return m;
+}
+// The sdag array of one map, whose data after the directory must be `regions`.
+EncodedArray sdagWithRegions(const Micromap& m, const std::vector<uint8_t>& regions) {
+  EncodedArray e = EncodedArray::build(arrayOf({m}), Encoding::Sdag).value();
+  EXPECT_EQ(e.dataBytes(), encode::kSdagDirectoryBytes + regions.size());
+  if (e.dataBytes() >= encode::kSdagDirectoryBytes) {
+    EXPECT_EQ(std::vector<uint8_t>(e.data().begin() + encode::kSdagDirectoryBytes, e.data().end()), regions);
+  }
+  return e;
+}
+
 // docs/encodings.md's second worked example: a tiered reference region (short references of 0 bits).
 TEST(EncodeDag, WorkedExampleTieredReferences) {
-  Micromap m(4, Format::TwoState);
   const uint32_t leaf[4] = {0x00ff, 0x0f0f, 0x3333, 0x5555};
-  for (uint32_t i = 0; i < 256; ++i) {
-    const uint32_t slot = i >> 4, v = leaf[slot < 10 ? 0 : (slot - 8) / 2];
-    m.set(i, (v >> (i & 15)) & 1u ? State::Opaque : State::Transparent);
-  }
-  const EncodedArray sdag = EncodedArray::build(arrayOf({m}), Encoding::Sdag).value();
-  const std::vector<uint8_t> regions{0xff, 0x00, 0x0f, 0x0f, 0x33, 0x33, 0x55,
-                                     0x55, 0xff, 0xff, 0xff, 0x03, 0xa5, 0x0f};
-  ASSERT_EQ(sdag.dataBytes(), 118u);
-  EXPECT_EQ(std::vector<uint8_t>(sdag.data().begin() + 104, sdag.data().begin() + 118), regions);
+  const Micromap m = levelFourMap([&](uint32_t slot) { return leaf[slot < 10 ? 0 : (slot - 8) / 2]; });
+  const EncodedArray sdag = sdagWithRegions(
+      m, {0xff, 0x00, 0x0f, 0x0f, 0x33, 0x33, 0x55, 0x55, 0xff, 0xff, 0xff, 0x03, 0xa5, 0x0f});
   const encode::SdagDirectory& dir = sdag.directory();
   EXPECT_EQ(dir.base[0], 104u);
   EXPECT_EQ(dir.base[1], 112u);
@@ -615,16 +627,10 @@ TEST(EncodeDag, WorkedExampleTieredReferences) {
 // leaves 0x0f00, 0x3333, 0x5555, each used once: they are stored right before the root and take no reference bits.
 // (No two of them are one leaf transform apart.)
 TEST(EncodeDag, WorkedExampleLocalLeaves) {
-  Micromap m(4, Format::TwoState);
   const uint32_t leaf[4] = {0x00ff, 0x0f00, 0x3333, 0x5555};
-  for (uint32_t i = 0; i < 256; ++i) {
-    const uint32_t slot = i >> 4, v = leaf[slot < 13 ? 0 : slot - 12];
-    m.set(i, (v >> (i & 15)) & 1u ? State::Opaque : State::Transparent);
-  }
-  const EncodedArray sdag = EncodedArray::build(arrayOf({m}), Encoding::Sdag).value();
-  const std::vector<uint8_t> regions{0xff, 0x00, 0x00, 0x0f, 0x33, 0x33, 0x55, 0x55, 0xff, 0xff, 0x00, 0xe0};
-  ASSERT_EQ(sdag.dataBytes(), 116u);
-  EXPECT_EQ(std::vector<uint8_t>(sdag.data().begin() + 104, sdag.data().begin() + 116), regions);
+  const Micromap m = levelFourMap([&](uint32_t slot) { return leaf[slot < 13 ? 0 : slot - 12]; });
+  const EncodedArray sdag =
+      sdagWithRegions(m, {0xff, 0x00, 0x00, 0x0f, 0x33, 0x33, 0x55, 0x55, 0xff, 0xff, 0x00, 0xe0});
   const encode::SdagDirectory& dir = sdag.directory();
   EXPECT_EQ(dir.base[0], 104u);
   EXPECT_EQ(dir.base[1], 106u);
@@ -655,16 +661,12 @@ TEST(EncodeDag, WorkedExampleLocalLeaves) {
 // the six leaves one transform apart from 0x00ff (0x00ff, 0xff00, 0x0f0f, 0xf0f0, 0x0ff0, 0xf00f, then again):
 // one stored leaf, and each reference carries its transform in its low 4 bits.
 TEST(EncodeDag, WorkedExampleLeafTransforms) {
-  Micromap m(4, Format::TwoState);
   const uint32_t leaf[6] = {0x00ff, 0xff00, 0x0f0f, 0xf0f0, 0x0ff0, 0xf00f};
-  for (uint32_t i = 0; i < 256; ++i)
-    m.set(i, (leaf[(i >> 4) % 6] >> (i & 15)) & 1u ? State::Opaque : State::Transparent);
-  const EncodedArray sdag = EncodedArray::build(arrayOf({m}), Encoding::Sdag).value();
+  const Micromap m = levelFourMap([&](uint32_t slot) { return leaf[slot % 6]; });
   // Region (1, 1): the leaf 0x00ff; the root at 106: M = 0xffff, then 16 references of 4 bits (leaf 0, T):
   // 0x00ff T 0, 0xff00 T 8 (the complement), 0x0f0f T 12 (p 4, complemented), 0xf0f0 T 4, 0x0ff0 T 2, 0xf00f T 10.
-  const std::vector<uint8_t> regions{0xff, 0x00, 0xff, 0xff, 0x80, 0x4c, 0xa2, 0x80, 0x4c, 0xa2, 0x80, 0x4c};
-  ASSERT_EQ(sdag.dataBytes(), 116u);
-  EXPECT_EQ(std::vector<uint8_t>(sdag.data().begin() + 104, sdag.data().begin() + 116), regions);
+  const EncodedArray sdag =
+      sdagWithRegions(m, {0xff, 0x00, 0xff, 0xff, 0x80, 0x4c, 0xa2, 0x80, 0x4c, 0xa2, 0x80, 0x4c});
   const encode::SdagDirectory& dir = sdag.directory();
   EXPECT_EQ(dir.base[1], 106u);
   EXPECT_EQ(dir.width[0], 4u);

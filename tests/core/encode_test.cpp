@@ -695,6 +695,61 @@ TEST(EncodeDag, WorkedExampleLeafTransforms) {
   EXPECT_FALSE(EncodedArray::parse(bad));
 }
 
+// Arrays whose leaves are a few leaves under random transforms (so that the builder takes transforms), with local
+// leaves, 4-way roots of leaves (level 3) and level-2 maps whose root leaf is another map's leaf transformed (their
+// own classes): every state equals flat through the memo walk and the plain walk, decode and parse round trip.
+TEST(EncodeDag, LeafTransformsAnswerAsFlat) {
+  std::mt19937 rng(2026);
+  for (Format f : {Format::TwoState, Format::FourState}) {
+    const uint32_t states = f == Format::TwoState ? 2u : 4u;
+    std::vector<uint32_t> base(24);
+    for (uint32_t& b : base) {
+      b = 0;
+      for (uint32_t i = 0; i < 16; ++i) b |= (rng() % states) << (2 * i);
+    }
+    // The leaf (2-bit states) reached from leaf v with transform t (p = t & 7 < 6, complement t >> 3).
+    auto transformed = [](uint32_t v, uint32_t t) {
+      uint32_t o = 0;
+      for (uint32_t i = 0; i < 16; ++i)
+        o |= ((v >> (2 * (uint32_t(encode::kSdagLeafPerm[t & 7u] >> (4 * i)) & 15u))) & 3u) << (2 * i);
+      return o ^ ((t >> 3) * 0x55555555u);
+    };
+    std::vector<Micromap> maps;
+    for (uint32_t level : {2u, 3u, 4u, 5u, 6u, 8u, 2u, 3u}) {
+      Micromap m(level, f);
+      for (uint32_t g = 0; g < m.size() / 16; ++g) {
+        const uint32_t t = rng() % 12, leaf = transformed(base[rng() % base.size()], t < 6 ? t : t + 2);
+        const bool uniform = level > 3 && rng() % 3 == 0, unique = rng() % 17 == 0;
+        for (uint32_t i = 0; i < 16; ++i) {
+          const uint32_t v = uniform ? 0u : unique ? uint32_t(rng() % states) : (leaf >> (2 * i)) & 3u;
+          m.set(g * 16 + i, State(v));
+        }
+      }
+      maps.push_back(m);
+    }
+    const OmmArray a = arrayOf(maps);
+    const EncodedArray e = EncodedArray::build(a, Encoding::Sdag).value();
+    EXPECT_EQ(e.directory().xform[uint32_t(f) - 1], 1u) << int(f);
+    const EncodedArray flat = EncodedArray::build(a, Encoding::Flat).value();
+    EXPECT_LT(e.dataBytes(), flat.dataBytes());
+    for (uint32_t m = 0; m < maps.size(); ++m) {
+      const auto& d = e.maps()[m];
+      for (uint32_t i = 0; i < maps[m].size(); ++i) {
+        ASSERT_EQ(e.state(m, i), maps[m].get(i)) << int(f) << " map " << m << " index " << i;
+        if (d.kind != MapKind::Sdag) continue;  // a map the builder kept flat
+        ASSERT_EQ(encode::sdagState(e.data().data(), e.directory(), d.offset, d.level, f, i), maps[m].get(i))
+            << int(f) << " map " << m << " level " << int(d.level) << " kind " << int(d.kind) << " index "
+            << i;
+      }
+    }
+    for (uint32_t m = 0; m < maps.size(); ++m) EXPECT_TRUE(e.decodeMap(m) == maps[m]) << m;
+    EXPECT_TRUE(sameArray(e.decode(), flat.decode()));
+    const EncodedArray parsed = EncodedArray::parse(e.serialize()).value();
+    EXPECT_EQ(parsed, e);
+    EXPECT_EQ(e.serialize()[4], 8u);
+  }
+}
+
 // The leaf transforms' permutations are the bird curve's: micro-triangle i of a level-2 triangle goes to the one
 // holding its centroid with the barycentric weights permuted, and the six form a group.
 TEST(EncodeDag, LeafSymmetriesFollowTheBirdCurve) {

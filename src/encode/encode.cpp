@@ -1129,9 +1129,9 @@ std::vector<uint8_t> emitSdagWith(const DagTables& tables, const std::vector<Dag
 // 2^28 bytes or more is emitted again without them.
 std::vector<uint8_t> emitSdag(const DagTables& tables, const std::vector<DagRoot>& roots,
                               const std::vector<DagMapOut>& kinds, std::vector<uint32_t>& offsets,
-                              SdagDirectory& dir) {
+                              SdagDirectory& dir, bool allowXform = true) {
   dir = SdagDirectory{};
-  std::vector<uint8_t> data = emitSdagWith(tables, roots, kinds, offsets, dir, true);
+  std::vector<uint8_t> data = emitSdagWith(tables, roots, kinds, offsets, dir, allowXform);
   if ((dir.xform[0] | dir.xform[1]) != 0 && data.size() >= (uint64_t(1) << kSdagLeafTShift)) {
     dir = SdagDirectory{};
     data = emitSdagWith(tables, roots, kinds, offsets, dir, false);
@@ -1506,12 +1506,15 @@ struct SdagBuild {
   std::vector<encode::DagMapOut> kinds;
   encode::SdagDirectory dir;
   bool directory = true;
+  bool xformCharged = false;  // pass 1's layout had leaf transforms
 };
 
 // sdag with per-map alternatives: pass 1 puts every map in the DAG and charges each the bytes of the records
 // it adds first (with pass 1's widths); a map keeps its alternative blob when that is smaller (ties: a flat
 // alternative wins, a dfs / rank one loses), and pass 2 builds the DAG of the others.
-SdagBuild buildSdag(const std::vector<Micromap>& maps, std::vector<encode::DagMapOut> choice) {
+SdagBuild buildSdagWith(const std::vector<Micromap>& maps, std::vector<encode::DagMapOut> choice,
+                        bool allowXform) {
+  bool charged = false;
   {
     encode::DagTables tables;
     tables.sdag = true;
@@ -1521,7 +1524,8 @@ SdagBuild buildSdag(const std::vector<Micromap>& maps, std::vector<encode::DagMa
       tables.created = &created[i];
       roots.push_back(encode::internMap(maps[i], tables));
     }
-    const encode::SdagLayout l = encode::sdagLayout(tables, roots, true);
+    const encode::SdagLayout l = encode::sdagLayout(tables, roots, allowXform);
+    charged = (l.xform[0] | l.xform[1]) != 0;
     for (size_t i = 0; i < maps.size(); ++i) {
       uint64_t own = encode::sdagRootBytes(roots[i], l);
       for (const auto& [k, id] : created[i]) own += encode::sdagRecordBytes(k, id, tables, l);
@@ -1538,9 +1542,18 @@ SdagBuild buildSdag(const std::vector<Micromap>& maps, std::vector<encode::DagMa
     roots.push_back(choice[i].kind == MapKind::Sdag ? encode::internMap(maps[i], tables)
                                                     : encode::DagRoot{maps[i].level(), maps[i].format()});
   SdagBuild b;
-  b.data = encode::emitSdag(tables, roots, choice, b.offsets, b.dir);
+  b.data = encode::emitSdag(tables, roots, choice, b.offsets, b.dir, allowXform);
   b.kinds = std::move(choice);
+  b.xformCharged = charged;
   return b;
+}
+// The same with leaf transforms where the layout takes them (chosen per leaf region, height by height; in pass
+// 1 they change what each map is charged), unless the whole array without any is no larger (ties: without).
+SdagBuild buildSdag(const std::vector<Micromap>& maps, const std::vector<encode::DagMapOut>& choice) {
+  SdagBuild b = buildSdagWith(maps, choice, true);
+  if (!b.xformCharged && (b.dir.xform[0] | b.dir.xform[1]) == 0) return b;
+  SdagBuild plain = buildSdagWith(maps, choice, false);
+  return plain.data.size() <= b.data.size() ? plain : b;
 }
 
 }  // namespace

@@ -206,6 +206,20 @@ TEST(CliEncode, CompareKeepsTheRowsWithinLimits) {
   EXPECT_EQ(r.exitCode, 0) << r.err;
 }
 
+// --sdag-stats reads the sdag records of an array with leaf transforms (version 8: the real tree at level 8 takes
+// them): the leaf references it follows carry T in their low bits (it crashed on them before reading them as such).
+TEST(CliEncode, CompareSdagStatsWithLeafTransforms) {
+  TempDir dir;
+  const std::string scene = shellQuote(std::string(SOMM_DATA_DIR) + "/redeclipse-tree01/tree01.obj");
+  const RunResult r =
+      runSomm(dir, "compare " + scene + " --levels 8 --formats 4 --cutoff 0.7 --lookups 0 --sdag-stats");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_NE(r.err.find("sdag L8: "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("with leaf transforms)"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("leaf refs: "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("h3: "), std::string::npos) << r.err;
+}
+
 // compare takes bake's material overrides (--cutoff, --filter): its bytes per encoding are those of the array
 // `somm bake` stores with the same options (info --json encoding_sizes), and the cutoff changes them.
 TEST(CliEncode, CompareTakesBakesMaterialOverrides) {

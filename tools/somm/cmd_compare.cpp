@@ -47,7 +47,9 @@ std::pair<uint32_t, bool> sdagChildInfo(const uint8_t* data, const somm::encode:
   const bool local = h == 1 && dir.local[k]
                          ? sdagLeafRefClass(p, pos, n, i, w, t, u).isLong != 0
                          : (sdagRefClass(p, pos, n, i, w, t, u).isLong & dir.local[k]) != 0;
-  return {sdagChildAt(dir, p, at, pos, n, i, k, h == 1 ? 2 * somm::bitsPerState(f) : 0), local};
+  uint32_t c = sdagChildAt(dir, p, at, pos, n, i, k, h == 1 ? 2 * somm::bitsPerState(f) : 0);
+  if (h == 1 && dir.xform[uint32_t(f) - 1] != 0) c &= kSdagLeafOffsetMask;  // the stored leaf, without its T
+  return {c, local};
 }
 void sdagVisit(const uint8_t* data, const somm::encode::SdagDirectory& dir, somm::Format f, uint32_t h,
                uint32_t off, bool local, std::set<std::pair<uint32_t, uint32_t>>& seen,
@@ -629,7 +631,8 @@ int run(const Options& o) {
             }
             line += " h" + std::to_string(h) + " " + std::to_string(b) + " B (ref " + (loc ? "local " : "") +
                     std::to_string(w) + (t != 0 ? " or " + std::to_string(t - 1) : std::string()) +
-                    (u != 0 ? " or " + std::to_string(u - 1) : std::string()) + " bits)";
+                    (u != 0 ? " or " + std::to_string(u - 1) : std::string()) + " bits" +
+                    (h == 1 && (dir.xform[0] | dir.xform[1]) != 0 ? ", with leaf transforms)" : ")");
           }
           // Records and references per height (4-state regions), and how the leaf references spread.
           {

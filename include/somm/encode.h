@@ -397,6 +397,13 @@ struct SdagDirectory {
 // A leaf handle (what the walk and its memo keep for a leaf): the leaf's byte offset in the data, with T in bits
 // 28..31 when the leaf region has transforms (an array with transforms has less than 2^28 data bytes).
 inline constexpr uint32_t kSdagLeafTShift = 28, kSdagLeafOffsetMask = (1u << kSdagLeafTShift) - 1u;
+// The handle of the leaf that region reference `ref` into leaf region k (leaves of leafBytes) names: the leaf number,
+// with transforms (xform) shifted past T in the low 4 bits.
+SOMM_ENCODE_INLINE uint32_t sdagLeafRegionHandle(const SdagDirectory& dir, uint32_t k, uint32_t ref,
+                                                 uint32_t leafBytes) noexcept {
+  const uint32_t sh = dir.xform[k / 6u] != 0 ? 4u : 0u;
+  return (dir.base[k] + (ref >> sh) * leafBytes) | ((ref & ((1u << sh) - 1u)) << kSdagLeafTShift);
+}
 // Reference number i of the n node children of a record whose references (with their flags) start at bit `pos`
 // (w, tier, mid: of the region referred to), and whether it is of the long class (width w: neither short nor mid),
 // which is a local reference (a byte offset from the record's first byte) when the region's local flag is set.
@@ -474,16 +481,12 @@ SOMM_ENCODE_INLINE uint32_t sdagChildAt(const SdagDirectory& dir, const uint8_t*
                                         uint32_t n, uint32_t i, uint32_t k, uint32_t leafBytes,
                                         uint64_t x) noexcept {
   const uint32_t w = dir.width[k], t = dir.tier[k], u = dir.mid[k];
-  if (leafBytes != 0) {  // a leaf handle (with transforms: the reference's low 4 bits are T)
-    const uint32_t sh = dir.xform[k / 6u] != 0 ? 4u : 0u;
+  if (leafBytes != 0) {  // a leaf handle
     if (dir.local[k] != 0) {
       const SdagRefClass r = sdagLeafRefClass(p, pos, n, i, w, t, u, x);
-      return sdagPick(
-          r.isLong, at - r.ref * leafBytes,
-          (dir.base[k] + (r.ref >> sh) * leafBytes) | ((r.ref & ((1u << sh) - 1u)) << kSdagLeafTShift));
+      return sdagPick(r.isLong, at - r.ref * leafBytes, sdagLeafRegionHandle(dir, k, r.ref, leafBytes));
     }
-    const SdagRefClass r = sdagRefClass(p, pos, n, i, w, t, u, x);
-    return (dir.base[k] + (r.ref >> sh) * leafBytes) | ((r.ref & ((1u << sh) - 1u)) << kSdagLeafTShift);
+    return sdagLeafRegionHandle(dir, k, sdagRefClass(p, pos, n, i, w, t, u, x).ref, leafBytes);
   }
   const SdagRefClass r = sdagRefClass(p, pos, n, i, w, t, u, x);
   return sdagPick(r.isLong & dir.local[k], at + r.ref, dir.base[k] + r.ref);
@@ -544,19 +547,24 @@ SOMM_ENCODE_INLINE State sdagLeafState(const uint8_t* leaf, uint32_t slot, uint3
   if constexpr (F == Format::TwoState) return State(((load16(leaf) >> j) & 1u) ^ c);
   return State(((load32(leaf) >> (2u * j)) & 3u) ^ c);
 }
-// The state `slot` of the leaf with handle a (see kSdagLeafTShift).
-template <Format F>
-SOMM_ENCODE_INLINE State sdagHandleState(const uint8_t* data, const SdagDirectory& dir, uint32_t a,
-                                         uint32_t slot) noexcept {
-  const uint32_t xf = dir.xform[uint32_t(F) - 1u];
-  return sdagLeafState<F>(data + sdagPick(xf, a & kSdagLeafOffsetMask, a), slot,
-                          sdagPick(xf, a >> kSdagLeafTShift, 0u));
-}
 // A leaf reached by a walk step: where it is and its transform.
 struct SdagLeafAt {
   const uint8_t* p;
   uint32_t t;
 };
+// The leaf with handle a of format f's leaf region (see kSdagLeafTShift).
+SOMM_ENCODE_INLINE SdagLeafAt sdagLeafOf(const uint8_t* data, const SdagDirectory& dir, Format f,
+                                         uint32_t a) noexcept {
+  const uint32_t xf = dir.xform[uint32_t(f) - 1u];
+  return {data + sdagPick(xf, a & kSdagLeafOffsetMask, a), sdagPick(xf, a >> kSdagLeafTShift, 0u)};
+}
+// The state `slot` of the leaf with handle a.
+template <Format F>
+SOMM_ENCODE_INLINE State sdagHandleState(const uint8_t* data, const SdagDirectory& dir, uint32_t a,
+                                         uint32_t slot) noexcept {
+  const SdagLeafAt l = sdagLeafOf(data, dir, F, a);
+  return sdagLeafState<F>(l.p, slot, l.t);
+}
 // The leaf that node child number i (of n) of the height-2 record at p refers to, when the leaf region has short
 // references (F) and local leaves (H), with a mid class (G) or without (kMid): the leaf regions of the real arrays
 // measured (single models: F and H; whole scenes: F, G and H). The same reading as sdagLeafRefClass + sdagChildAt,
@@ -619,10 +627,7 @@ SOMM_ENCODE_INLINE auto sdagNodeChildOf(const uint8_t* data, const SdagDirectory
     if (dir.local[k] != 0 && dir.tier[k] != 0)
       return dir.mid[k] != 0 ? sdagLocalLeaf<F, true>(data, dir, p, n, i, fx.pos, fx.x)
                              : sdagLocalLeaf<F, false>(data, dir, p, n, i, fx.pos, fx.x);
-    const uint32_t a = sdagChildAt(dir, p, uint32_t(p - data), fx.pos, n, i, k, 2u * b, fx.x);
-    const uint32_t xf = dir.xform[uint32_t(F) - 1u];
-    return SdagLeafAt{data + sdagPick(xf, a & kSdagLeafOffsetMask, a),
-                      sdagPick(xf, a >> kSdagLeafTShift, 0u)};
+    return sdagLeafOf(data, dir, F, sdagChildAt(dir, p, uint32_t(p - data), fx.pos, n, i, k, 2u * b, fx.x));
   } else {
     if (dir.local[k] != 0 && dir.mid[k] == 0)
       return dir.tier[k] != 0 ? sdagLocalNode<true>(data, dir, p, n, i, k, fx.pos, fx.x)

@@ -1236,18 +1236,14 @@ void sdagFill(const uint8_t* data, const SdagDirectory& dir, const uint8_t* p, F
   uint32_t ui = 0, ni = 0;
   for (uint32_t s = 0; s < slots; ++s) {
     if ((m >> s) & 1u) {
-      uint32_t a = sdagChildAt(dir, p, uint32_t(p - data), sdagFlagsPos(p, slots, n), n, ni++, k,
-                               h == 1 ? 2 * bitsPerState(f) : 0u);
-      uint32_t t = 0;
-      if (h == 1 && dir.xform[uint32_t(f) - 1u] != 0) {  // a leaf handle with its transform
-        t = a >> kSdagLeafTShift;
-        a &= kSdagLeafOffsetMask;
+      const uint32_t a = sdagChildAt(dir, p, uint32_t(p - data), sdagFlagsPos(p, slots, n), n, ni++, k,
+                                     h == 1 ? 2 * bitsPerState(f) : 0u);
+      if (h == 1) {  // a leaf handle
+        const SdagLeafAt l = sdagLeafOf(data, dir, f, a);
+        sdagFill(data, dir, l.p, f, 0, 16, start + s * span, out, l.t);
+      } else {
+        sdagFill(data, dir, data + a, f, h - 1, 16, start + s * span, out);
       }
-      const uint8_t* c = data + a;
-      if (h == 1)
-        sdagFill(data, dir, c, f, 0, 16, start + s * span, out, t);
-      else
-        sdagFill(data, dir, c, f, h - 1, 16, start + s * span, out);
     } else {
       fillRange(out, start + s * span, span, sdagUniformChild(p, slots, ui++));
     }

@@ -47,9 +47,9 @@ std::pair<uint32_t, bool> sdagChildInfo(const uint8_t* data, const somm::encode:
   const bool local = h == 1 && dir.local[k]
                          ? sdagLeafRefClass(p, pos, n, i, w, t, u).isLong != 0
                          : (sdagRefClass(p, pos, n, i, w, t, u).isLong & dir.local[k]) != 0;
-  uint32_t c = sdagChildAt(dir, p, at, pos, n, i, k, h == 1 ? 2 * somm::bitsPerState(f) : 0);
-  if (h == 1 && dir.xform[uint32_t(f) - 1] != 0) c &= kSdagLeafOffsetMask;  // the stored leaf, without its T
-  return {c, local};
+  const uint32_t c = sdagChildAt(dir, p, at, pos, n, i, k, h == 1 ? 2 * somm::bitsPerState(f) : 0);
+  // A leaf: the stored leaf's offset (its handle without T).
+  return {h == 1 ? uint32_t(sdagLeafOf(data, dir, f, c).p - data) : c, local};
 }
 void sdagVisit(const uint8_t* data, const somm::encode::SdagDirectory& dir, somm::Format f, uint32_t h,
                uint32_t off, bool local, std::set<std::pair<uint32_t, uint32_t>>& seen,

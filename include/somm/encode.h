@@ -24,6 +24,7 @@
 #include <array>
 #include <cstdint>
 #include <cstring>
+#include <new>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -811,12 +812,53 @@ struct SdagMemo {
 };
 // Arrays of at most this many distinct DAG map roots keep grandchild tables (SdagMemo::Grand).
 inline constexpr uint64_t kGrandArrayMaps = 256;
-inline SdagMemo& sdagMemo() noexcept {
-  thread_local SdagMemo memo;
+// The calling thread's memo lives on the heap, allocated by its first memo lookup: a thread_local SdagMemo itself
+// (385,168 bytes, with non-zero initial values) would be in the program's static TLS image, which every thread the
+// process starts gets a copy of — written page by page into its stack mapping — whether it ever looks anything up
+// or not (`somm bake` of a small model spent ~2 ms of ~20 in those page faults). The slot is a plain pointer (no
+// guard on the lookup's path); its owner, touched only when allocating, frees the memo when the thread ends.
+inline SdagMemo*& sdagMemoSlot() noexcept {
+  thread_local SdagMemo* memo = nullptr;
   return memo;
 }
-inline SdagMemo::Entry& sdagMemoEntry(uint32_t triangle) noexcept {
-  return sdagMemo().entry[(triangle * 0x9e3779b1u) >> 24];
+// Set when the thread's owner was destroyed (thread exit): no memo is allocated after that.
+inline bool& sdagMemoEnded() noexcept {
+  thread_local bool ended = false;
+  return ended;
+}
+struct SdagMemoOwner {
+  SdagMemo* memo = nullptr;
+  bool tried = false;
+  SdagMemoOwner() = default;
+  SdagMemoOwner(const SdagMemoOwner&) = delete;
+  SdagMemoOwner& operator=(const SdagMemoOwner&) = delete;
+  ~SdagMemoOwner() {
+    delete memo;
+    sdagMemoSlot() = nullptr;
+    sdagMemoEnded() = true;
+  }
+};
+// The calling thread's memo, allocated on its first call; null when the allocation failed (once per thread: then
+// every lookup walks from the root, as sdagStateAs does) or the thread is ending.
+SOMM_ENCODE_COLD inline SdagMemo* sdagMemoAllocate() noexcept {
+  if (sdagMemoEnded()) return nullptr;
+  thread_local SdagMemoOwner owner;
+  if (!owner.tried) {
+    owner.tried = true;
+    owner.memo = new (std::nothrow) SdagMemo();
+  }
+  return sdagMemoSlot() = owner.memo;
+}
+inline SdagMemo* sdagMemoOfThread() noexcept {
+  SdagMemo* memo = sdagMemoSlot();
+  return memo ? memo : sdagMemoAllocate();
+}
+// The memo of a thread inside a memo lookup (sdagMemoOfThread returned it, so it exists).
+inline SdagMemo& sdagMemo() noexcept {
+  return *sdagMemoSlot();
+}
+inline SdagMemo::Entry& sdagMemoEntry(SdagMemo& memo, uint32_t triangle) noexcept {
+  return memo.entry[(triangle * 0x9e3779b1u) >> 24];
 }
 // The map cache slot of the map whose root record is at byte offset `root`.
 inline SdagMemo::MapTop& sdagMapTop(uint32_t root) noexcept {
@@ -1227,11 +1269,23 @@ class EncodedArray {
     }
   }
 
+  // The sdag lookup without the memo (a thread whose memo could not be allocated): from the packed index buffer and
+  // the root, out of line.
+  template <class IndexOf>
+  SOMM_ENCODE_COLD State sdagPlainState(uint32_t triangle, IndexOf indexOf) const noexcept {
+    const int32_t i = indexAs<Encoding::Sdag>(triangle);
+    if (i < 0) return stateOfSpecialIndex(i);
+    const EncodedMapDesc& d = maps_[size_t(i)];
+    return mapState<Encoding::Sdag>(d, indexOf(d.level));
+  }
+
   // The sdag lookup of a triangle through the per-thread memo (encode::SdagMemo); indexOf(level) gives the
   // micro-triangle index once the triangle's level is known.
   template <class IndexOf>
   SOMM_ENCODE_INLINE State sdagMemoState(uint32_t triangle, IndexOf indexOf) const noexcept {
-    encode::SdagMemo::Entry& e = encode::sdagMemoEntry(triangle);
+    encode::SdagMemo* memo = encode::sdagMemoOfThread();
+    if (!memo) return sdagPlainState(triangle, indexOf);
+    encode::SdagMemo::Entry& e = encode::sdagMemoEntry(*memo, triangle);
     if (e.array != identity_ || e.triangle != triangle) sdagMemoFill(e, triangle);
     if (e.kind == 2) return State(e.root);
     const uint32_t index = indexOf(e.level);

@@ -11,6 +11,7 @@
 #include <random>
 #include <span>
 #include <string>
+#include <thread>
 #include <tuple>
 #include <vector>
 
@@ -1222,6 +1223,42 @@ TEST(EncodeDag, WalkMemoAnswersAsFlatInAnyOrder) {
     }
   }
 }
+// The memo is per thread and on the heap: a thread has none until its first sdag lookup, which allocates it; a
+// thread that cannot have one (its allocation failed, or the thread is ending: sdagMemoEnded) walks from the root and
+// answers the same. Each case runs on a thread of its own.
+TEST(EncodeDag, WalkMemoIsAllocatedPerThreadAndOptional) {
+  std::mt19937 rng(21u);
+  std::vector<Micromap> maps;
+  for (uint32_t t = 0; t < 300; ++t) {
+    const uint32_t level = rng() % 11;
+    maps.push_back(cachedMap(kPatterns[rng() % 6], level, Format::FourState, 1 + rng() % 3));
+  }
+  const OmmArray oracle = arrayOf(maps);
+  const EncodedArray e = EncodedArray::build(oracle, Encoding::Sdag).value();
+  auto lookups = [&](uint32_t seed, bool& sawMemo, bool& haveMemo) {
+    std::mt19937 r(seed);
+    sawMemo = encode::sdagMemoSlot() != nullptr;
+    std::vector<uint32_t> last(e.triangleCount(), 0);
+    for (uint32_t q = 0; q < 20000; ++q) {
+      const uint32_t t = r() % e.triangleCount(), i = nextLookupIndex(r, oracle, t, last[t], 1);
+      ASSERT_EQ(e.state(t, i), oracle.state(t, i)) << "triangle " << t << " index " << i;
+      const float u = float(r() % 4097) / 4096.0f, v = float(r() % 4097) / 4096.0f;
+      ASSERT_EQ(e.stateUV(t, u, v), oracle.stateUV(t, u, v)) << "triangle " << t << " " << u << " " << v;
+    }
+    haveMemo = encode::sdagMemoSlot() != nullptr;
+  };
+  bool saw = true, have = false;
+  std::thread([&] { lookups(1, saw, have); }).join();
+  EXPECT_FALSE(saw);  // a new thread starts without one
+  EXPECT_TRUE(have);  // its first lookup allocated it
+  std::thread([&] {
+    encode::sdagMemoEnded() = true;  // as if its allocation had failed
+    lookups(2, saw, have);
+  }).join();
+  EXPECT_FALSE(saw);
+  EXPECT_FALSE(have);  // every lookup went without it
+}
+
 // `base` with a run of micro-triangles (where depends on k) made opaque: distinct maps of one shape for distinct k.
 Micromap withOpaqueRun(const Micromap& base, uint32_t k) {
   Micromap m = base;

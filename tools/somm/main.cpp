@@ -80,7 +80,18 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
   try {
     app.set_version_flag("--version", std::string("somm ") + SOMM_VERSION);
     app.require_subcommand(1);
-    for (const auto& e : registry()) e.setup(app);
+    // Only the named command's options are built when the first word names one (start-up: building every
+    // command's options is most of the CLI's own start-up work); otherwise (help, an option, an unknown word) all.
+    bool named = false;
+    if (argc > 1)
+      for (const auto& e : registry())
+        if (std::strcmp(argv[1], e.name) == 0) {
+          e.setup(app);
+          named = true;
+          break;
+        }
+    if (!named)
+      for (const auto& e : registry()) e.setup(app);
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);

@@ -826,9 +826,10 @@ inline bool& sdagMemoEnded() noexcept {
   thread_local bool ended = false;
   return ended;
 }
+// Constructed by a thread's first sdagMemoAllocate, which is when the memo is allocated (once: a failed allocation
+// is not retried).
 struct SdagMemoOwner {
-  SdagMemo* memo = nullptr;
-  bool tried = false;
+  SdagMemo* memo = new (std::nothrow) SdagMemo();
   SdagMemoOwner() = default;
   SdagMemoOwner(const SdagMemoOwner&) = delete;
   SdagMemoOwner& operator=(const SdagMemoOwner&) = delete;
@@ -843,10 +844,6 @@ struct SdagMemoOwner {
 SOMM_ENCODE_COLD inline SdagMemo* sdagMemoAllocate() noexcept {
   if (sdagMemoEnded()) return nullptr;
   thread_local SdagMemoOwner owner;
-  if (!owner.tried) {
-    owner.tried = true;
-    owner.memo = new (std::nothrow) SdagMemo();
-  }
   return sdagMemoSlot() = owner.memo;
 }
 inline SdagMemo* sdagMemoOfThread() noexcept {
@@ -1181,20 +1178,24 @@ class EncodedArray {
   // The same with the encoding fixed at compile time (E must equal encoding()).
   template <Encoding E>
   State stateAs(uint32_t triangle, uint32_t index) const noexcept {
-    if constexpr (E == Encoding::Sdag) return sdagMemoState(triangle, [index](uint32_t) { return index; });
-    const int32_t i = indexAs<E>(triangle);
-    if (i < 0) return stateOfSpecialIndex(i);
-    const EncodedMapDesc& d = maps_[size_t(i)];
-    return mapState<E>(d, index);
+    const auto indexOf = [index](uint32_t) { return index; };
+    if constexpr (E == Encoding::Sdag) return sdagMemoState(triangle, indexOf);
+    return plainState<E>(triangle, indexOf);
   }
   template <Encoding E>
   State stateUVAs(uint32_t triangle, float u, float v) const noexcept {
-    if constexpr (E == Encoding::Sdag)
-      return sdagMemoState(triangle, [u, v](uint32_t level) { return baryToIndex(u, v, level); });
+    const auto indexOf = [u, v](uint32_t level) { return baryToIndex(u, v, level); };
+    if constexpr (E == Encoding::Sdag) return sdagMemoState(triangle, indexOf);
+    return plainState<E>(triangle, indexOf);
+  }
+  // The lookup from the index buffer and the map's descriptor (every encoding but sdag, which has its memo);
+  // indexOf(level) gives the micro-triangle index once the triangle's level is known.
+  template <Encoding E, class IndexOf>
+  State plainState(uint32_t triangle, IndexOf indexOf) const noexcept {
     const int32_t i = indexAs<E>(triangle);
     if (i < 0) return stateOfSpecialIndex(i);
     const EncodedMapDesc& d = maps_[size_t(i)];
-    return mapState<E>(d, baryToIndex(u, v, d.level));
+    return mapState<E>(d, indexOf(d.level));
   }
 
   // The triangle's index-buffer value (a descriptor index or a special index -1..-4): sdag reads its packed
@@ -1269,14 +1270,10 @@ class EncodedArray {
     }
   }
 
-  // The sdag lookup without the memo (a thread whose memo could not be allocated): from the packed index buffer and
-  // the root, out of line.
+  // The sdag lookup without the memo (a thread whose memo could not be allocated), out of line.
   template <class IndexOf>
   SOMM_ENCODE_COLD State sdagPlainState(uint32_t triangle, IndexOf indexOf) const noexcept {
-    const int32_t i = indexAs<Encoding::Sdag>(triangle);
-    if (i < 0) return stateOfSpecialIndex(i);
-    const EncodedMapDesc& d = maps_[size_t(i)];
-    return mapState<Encoding::Sdag>(d, indexOf(d.level));
+    return plainState<Encoding::Sdag>(triangle, indexOf);
   }
 
   // The sdag lookup of a triangle through the per-thread memo (encode::SdagMemo); indexOf(level) gives the

@@ -11,6 +11,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <new>
 #include <optional>
 #include <string>
 
@@ -25,6 +26,22 @@
 #include "somm/somm_file.h"
 
 namespace {
+
+// -j's cap on TBB's threads (0: none). It lives to the process's exit, not to the end of the command: destroying a
+// global_control lifts the limit and TBB starts a thread to resize its pool, one thread created for nothing at the
+// end of every `somm bake -j N`. A later call with another value replaces it.
+void capThreads(size_t threads) {
+  alignas(tbb::global_control) static unsigned char storage[sizeof(tbb::global_control)];
+  static tbb::global_control* cap = nullptr;
+  static size_t capped = 0;
+  if (cap && capped == threads) return;
+  if (cap) {
+    cap->~global_control();
+    cap = nullptr;
+  }
+  if (threads) cap = new (storage) tbb::global_control(tbb::global_control::max_allowed_parallelism, threads);
+  capped = threads;
+}
 
 struct Options {
   std::string scene, output;
@@ -132,8 +149,7 @@ int run(const Options& o) {
   if (somm::Status s = somm::validateBakeOptions(bo); !s) return usage(flagNames(s.error().message));
 
   // -j bounds every stage (the loader decodes images in parallel, the bake runs its pool).
-  std::optional<tbb::global_control> threadCap;
-  if (o.threads) threadCap.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
+  capThreads(o.threads);
 
 #ifdef __GLIBC__
   // Blocks of 4 MiB and more (decoded images, large masks, map chunks) are mapped on their own and returned to the

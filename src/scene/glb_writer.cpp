@@ -1,21 +1,22 @@
 // SPDX-License-Identifier: MIT
-// somm — writing a Scene as a self-contained .glb (for procedural scenes on disk: CLI tests, demos,
-// benchmarks).
+// somm — writing a Scene as a self-contained .glb (procedural scenes on disk for CLI tests, demos and benchmarks;
+// `somm bake` of an OBJ to glTF: docs/gltf.md).
+#include <libdeflate.h>
+
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <system_error>
 
 #include "somm/io.h"
 #include "somm/scene.h"
-
-// Exported by the Debian libstb (stb_image_write's zlib compressor) but only declared inside its
-// implementation section.
-extern "C" unsigned char* stbi_zlib_compress(unsigned char* data, int data_len, int* out_len, int quality);
 
 namespace somm {
 
@@ -41,40 +42,101 @@ uint32_t crc32(const uint8_t* p, size_t n) {
   return ~c;
 }
 
-// 16-bit RGBA PNG (zlib via stb_image_write's compressor).
-Result<std::vector<uint8_t>> encodePng16(uint32_t w, uint32_t h, const std::vector<uint16_t>& rgba) {
-  std::vector<uint8_t> raw;
-  raw.reserve(size_t(h) * (1 + size_t(w) * 8));
-  for (uint32_t y = 0; y < h; ++y) {
-    raw.push_back(0);
-    for (size_t i = 0; i < size_t(w) * 4; ++i) {
-      const uint16_t v = rgba[size_t(y) * w * 4 + i];
-      raw.push_back(uint8_t(v >> 8));
-      raw.push_back(uint8_t(v & 0xFF));
-    }
-  }
-  if (raw.size() > size_t(INT32_MAX))
+// A PNG of RGBA rows of `depth` (8 or 16) bits per sample: `pixels` holds the rows one after the other, samples
+// big-endian, without filter bytes. Each row gets the filter (None, Sub, Up or Paeth) whose bytes have the smallest
+// sum of absolute values as signed bytes (libpng's heuristic); the zlib stream is libdeflate's (level 9).
+Result<std::vector<uint8_t>> encodePng(uint32_t w, uint32_t h, uint32_t depth,
+                                       const std::vector<uint8_t>& pixels) {
+  const size_t bpp = depth / 2, rowBytes = size_t(w) * bpp;  // 4 samples of depth / 8 bytes
+  if (pixels.size() != rowBytes * h)
+    return makeError(ErrorCode::InvalidArgument, "inconsistent texture rows");
+  if ((rowBytes + 1) * h > size_t(INT32_MAX))
     return makeError(ErrorCode::LimitExceeded, "texture too large to encode");
-  int zlen = 0;
-  unsigned char* z = stbi_zlib_compress(raw.data(), int(raw.size()), &zlen, 8);
-  if (!z) return makeError(ErrorCode::IoError, "PNG compression failed");
+  std::vector<uint8_t> raw((rowBytes + 1) * h);
+  std::vector<uint8_t> zero(rowBytes, 0), trial[4];
+  for (auto& t : trial) t.resize(rowBytes);
+  for (uint32_t y = 0; y < h; ++y) {
+    const uint8_t* cur = pixels.data() + size_t(y) * rowBytes;
+    const uint8_t* up = y ? cur - rowBytes : zero.data();
+    uint64_t best = ~uint64_t(0);
+    int pick = 0;
+    for (int f = 0; f < 4; ++f) {
+      uint8_t* out = trial[f].data();
+      uint64_t sum = 0;
+      for (size_t i = 0; i < rowBytes; ++i) {
+        const int a = i >= bpp ? cur[i - bpp] : 0, b = up[i], c = i >= bpp ? up[i - bpp] : 0;
+        int pred = 0;
+        if (f == 1) {
+          pred = a;
+        } else if (f == 2) {
+          pred = b;
+        } else if (f == 3) {
+          const int pa = std::abs(b - c), pb = std::abs(a - c), pc = std::abs(a + b - 2 * c);
+          pred = pa <= pb && pa <= pc ? a : pb <= pc ? b : c;
+        }
+        out[i] = uint8_t(cur[i] - pred);
+        sum += uint64_t(std::abs(int(int8_t(out[i]))));
+      }
+      if (sum < best) best = sum, pick = f;
+    }
+    static constexpr uint8_t kFilterType[4] = {0, 1, 2, 4};  // None, Sub, Up, Paeth
+    uint8_t* row = raw.data() + size_t(y) * (rowBytes + 1);
+    row[0] = kFilterType[pick];
+    std::copy(trial[pick].begin(), trial[pick].end(), row + 1);
+  }
+  std::unique_ptr<libdeflate_compressor, decltype(&libdeflate_free_compressor)> zc(
+      libdeflate_alloc_compressor(6), &libdeflate_free_compressor);
+  if (!zc) return makeError(ErrorCode::LimitExceeded, "PNG compression: out of memory");
+  std::vector<uint8_t> z(libdeflate_zlib_compress_bound(zc.get(), raw.size()));
+  const size_t zlen = libdeflate_zlib_compress(zc.get(), raw.data(), raw.size(), z.data(), z.size());
+  if (zlen == 0) return makeError(ErrorCode::IoError, "PNG compression failed");
   std::vector<uint8_t> png = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
   auto chunk = [&](const char* type, const uint8_t* data, size_t n) {
     put32be(png, uint32_t(n));
     const size_t start = png.size();
     png.insert(png.end(), type, type + 4);
-    png.insert(png.end(), data, data + n);
+    if (n) png.insert(png.end(), data, data + n);
     put32be(png, crc32(png.data() + start, n + 4));
   };
   std::vector<uint8_t> ihdr;
   put32be(ihdr, w);
   put32be(ihdr, h);
-  ihdr.insert(ihdr.end(), {16, 6, 0, 0, 0});
+  ihdr.insert(ihdr.end(), {uint8_t(depth), 6, 0, 0, 0});
   chunk("IHDR", ihdr.data(), ihdr.size());
-  chunk("IDAT", z, size_t(zlen));
-  std::free(z);
+  chunk("IDAT", z.data(), zlen);
   chunk("IEND", nullptr, 0);
   return png;
+}
+
+// The base colour texture of a material: RGB from `c` when it has the alpha's size (else white), alpha from `a`
+// (else from `c`, else opaque). 8 bits per sample when that is exact — the alpha's texels are 8-bit values with no
+// factor (they read back as the same alphas), or there is no alpha texture — else 16 bits, alpha rounded to
+// multiples of 1/65535.
+Result<std::vector<uint8_t>> encodeBaseColor(const AlphaTexture* a, const ColorImage* c) {
+  const uint32_t w = a ? a->width : c->width, h = a ? a->height : c->height;
+  const bool useColor = c && c->width == w && c->height == h;
+  const bool exact8 = !a || (a->storage == AlphaStorage::UInt8 && a->scale == 1.0f);
+  const size_t n = size_t(w) * h;
+  if (exact8) {
+    std::vector<uint8_t> px(n * 4);
+    for (size_t i = 0; i < n; ++i) {
+      for (size_t k = 0; k < 3; ++k) px[i * 4 + k] = useColor ? c->rgba[i * 4 + k] : 255;
+      px[i * 4 + 3] = a ? a->alpha8[i] : useColor ? c->rgba[i * 4 + 3] : 255;
+    }
+    return encodePng(w, h, 8, px);
+  }
+  std::vector<uint8_t> px(n * 8);
+  auto put16 = [&](size_t at, uint32_t v) {
+    px[at] = uint8_t(v >> 8);
+    px[at + 1] = uint8_t(v & 0xFF);
+  };
+  for (size_t i = 0; i < n; ++i) {
+    for (size_t k = 0; k < 3; ++k) put16(i * 8 + 2 * k, useColor ? c->rgba[i * 4 + k] * 257u : 65535u);
+    const float v = a->texel(i);
+    put16(i * 8 + 6,
+          std::isfinite(v) ? uint32_t(std::lround(std::clamp(double(v), 0.0, 1.0) * 65535.0)) : 0u);
+  }
+  return encodePng(w, h, 16, px);
 }
 
 int wrapCode(Wrap w) {
@@ -99,6 +161,9 @@ Result<std::vector<uint8_t>> encodeGlb(const Scene& scene, const std::string& pa
   };
 
   json images = json::array(), textures = json::array(), samplers = json::array(), materials = json::array();
+  std::map<std::pair<const void*, const void*>, size_t> imageOf;
+  std::map<std::array<int, 3>, size_t> samplerOf;
+  std::map<std::pair<size_t, size_t>, size_t> textureOf;
   for (const Material& m : scene.materials) {
     json jm = {{"name", m.name}, {"doubleSided", m.doubleSided}, {"alphaCutoff", m.alphaCutoff}};
     jm["alphaMode"] = m.alphaMode == AlphaMode::Mask    ? "MASK"
@@ -112,29 +177,30 @@ Result<std::vector<uint8_t>> encodeGlb(const Scene& scene, const std::string& pa
       return fail(ErrorCode::InvalidArgument, "material '" + m.name + "' has an inconsistent alpha texture");
     if (c && c->rgba.size() != size_t(c->width) * c->height * 4) c = nullptr;
     if (a || c) {
-      const uint32_t w = a ? a->width : c->width, h = a ? a->height : c->height;
-      const bool useColor = c && c->width == w && c->height == h;
-      std::vector<uint16_t> px(size_t(w) * h * 4);
-      for (size_t i = 0; i < size_t(w) * h; ++i) {
-        for (int k = 0; k < 3; ++k)
-          px[i * 4 + size_t(k)] = useColor ? uint16_t(c->rgba[i * 4 + size_t(k)] * 257) : 65535;
-        if (a) {
-          const float v = a->texel(i);
-          px[i * 4 + 3] =
-              std::isfinite(v) ? uint16_t(std::lround(std::clamp(double(v), 0.0, 1.0) * 65535.0)) : 0;
-        } else {
-          px[i * 4 + 3] = useColor ? uint16_t(c->rgba[i * 4 + 3] * 257) : 65535;
-        }
+      // Materials that share their textures and sampler share one image and one texture.
+      const auto imageKey = std::make_pair(static_cast<const void*>(a), static_cast<const void*>(c));
+      auto img = imageOf.find(imageKey);
+      if (img == imageOf.end()) {
+        auto png = encodeBaseColor(a, c);
+        if (!png.ok()) return fail(png.error().code, "material '" + m.name + "': " + png.error().message);
+        images.push_back({{"bufferView", addView(png->data(), png->size())}, {"mimeType", "image/png"}});
+        img = imageOf.emplace(imageKey, images.size() - 1).first;
       }
-      auto png = encodePng16(w, h, px);
-      if (!png.ok()) return fail(png.error().code, "material '" + m.name + "': " + png.error().message);
-      images.push_back({{"bufferView", addView(png->data(), png->size())}, {"mimeType", "image/png"}});
-      samplers.push_back({{"magFilter", m.sampler.filter == Filter::Nearest ? 9728 : 9729},
-                          {"minFilter", m.sampler.filter == Filter::Nearest ? 9728 : 9729},
-                          {"wrapS", wrapCode(m.sampler.wrapS)},
-                          {"wrapT", wrapCode(m.sampler.wrapT)}});
-      textures.push_back({{"source", images.size() - 1}, {"sampler", samplers.size() - 1}});
-      pbr["baseColorTexture"] = {{"index", textures.size() - 1}};
+      const int mag = m.sampler.filter == Filter::Nearest ? 9728 : 9729;
+      const std::array<int, 3> samplerKey{mag, wrapCode(m.sampler.wrapS), wrapCode(m.sampler.wrapT)};
+      auto smp = samplerOf.find(samplerKey);
+      if (smp == samplerOf.end()) {
+        samplers.push_back(
+            {{"magFilter", mag}, {"minFilter", mag}, {"wrapS", samplerKey[1]}, {"wrapT", samplerKey[2]}});
+        smp = samplerOf.emplace(samplerKey, samplers.size() - 1).first;
+      }
+      const auto textureKey = std::make_pair(img->second, smp->second);
+      auto tex = textureOf.find(textureKey);
+      if (tex == textureOf.end()) {
+        textures.push_back({{"source", img->second}, {"sampler", smp->second}});
+        tex = textureOf.emplace(textureKey, textures.size() - 1).first;
+      }
+      pbr["baseColorTexture"] = {{"index", tex->second}};
       if (a) factor[3] = 1.0f;  // the alpha factor is already in the texture
     }
     pbr["baseColorFactor"] = {factor[0], factor[1], factor[2], factor[3]};

@@ -172,6 +172,48 @@ TEST(GltfMicromap, ObjBecomesGltfWithMaskMaterials) {
   ASSERT_TRUE(back->materials[0].alpha);             // the texture is embedded
 }
 
+// An OBJ baked to .glb keeps its look: each material's base colour texture is the OBJ's colour image with its
+// alpha (not a white image holding the alpha alone), the two materials of the bundled Red Eclipse tree share one
+// image (they name the same file), and the 8-bit alpha is stored in an 8-bit PNG that reads back exactly.
+TEST(GltfMicromap, ObjColoursAndSharedImagesSurvive) {
+  TempDir d;
+  const std::string obj = kData + "/redeclipse-tree01/tree01.obj";
+  auto r = runSomm("bake " + shellQuote(obj) + " -o " + shellQuote(d / "t.glb") + " --level 4");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  auto src = somm::loadScene(obj);
+  auto back = somm::loadScene(d / "t.glb");
+  ASSERT_TRUE(src.ok()) << src.error().message;
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  ASSERT_EQ(src->materials.size(), 2u);
+  ASSERT_EQ(back->materials.size(), 2u);
+  for (size_t i = 0; i < 2; ++i) {
+    SCOPED_TRACE(src->materials[i].name);
+    const somm::Material &a = src->materials[i], &b = back->materials[i];
+    ASSERT_TRUE(a.baseColor && b.baseColor && a.alpha && b.alpha);
+    EXPECT_EQ(a.baseColor->width, b.baseColor->width);
+    EXPECT_EQ(a.baseColor->rgba, b.baseColor->rgba);  // RGB and the alpha channel the material tests
+    EXPECT_EQ(a.alpha->values(), b.alpha->values());
+    EXPECT_EQ(b.alpha->storage, somm::AlphaStorage::UInt8);
+  }
+  const std::string bytes = readFile(d / "t.glb");
+  ASSERT_GT(bytes.size(), 20u);
+  uint32_t jlen = 0;
+  std::memcpy(&jlen, bytes.data() + 12, 4);
+  const json j = json::parse(bytes.substr(20, jlen));
+  ASSERT_EQ(j["images"].size(), 1u);
+  ASSERT_EQ(j["textures"].size(), 1u);
+  EXPECT_EQ(j["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["index"], 0);
+  EXPECT_EQ(j["materials"][1]["pbrMetallicRoughness"]["baseColorTexture"]["index"], 0);
+  // The PNG's IHDR: 8 bits per sample, RGBA.
+  const json& view = j["bufferViews"][j["images"][0]["bufferView"].get<size_t>()];
+  uint32_t binStart = 20 + jlen + 8;
+  const std::string png = bytes.substr(binStart + view.value("byteOffset", size_t(0)), view["byteLength"]);
+  ASSERT_GT(png.size(), 26u);
+  EXPECT_EQ(png.substr(1, 3), "PNG");
+  EXPECT_EQ(int(uint8_t(png[24])), 8);
+  EXPECT_EQ(int(uint8_t(png[25])), 6);
+}
+
 TEST(GltfMicromap, RealSharedScenes) {
   const std::string dir = "/work/shared/assets/foliage/redeclipse/obj/";
   if (!fs::exists(dir + "tree07.obj")) GTEST_SKIP() << "../shared is absent";

@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
+#include <memory>
 
 #include "scene_test_util.h"
 #include "somm/procedural.h"
@@ -104,6 +106,53 @@ TEST(GlbWriter, RealScenesRoundTrip) {
       }
     }
   }
+}
+
+// Materials sharing an alpha texture share one image; an 8-bit alpha without a factor is written as an 8-bit PNG
+// (exact), any other alpha as a 16-bit one.
+TEST(GlbWriter, SharedTexturesAndSampleDepth) {
+  TempDir dir;
+  std::vector<uint8_t> v8(64 * 32);
+  for (size_t i = 0; i < v8.size(); ++i) v8[i] = uint8_t((i * 37) % 256);
+  auto a8 = std::make_shared<somm::AlphaTexture>(somm::AlphaTexture::fromUInt8(64, 32, v8));
+  auto a8scaled = std::make_shared<somm::AlphaTexture>(somm::AlphaTexture::fromUInt8(64, 32, v8, 0.5f));
+  somm::Scene s = somm::makeQuadScene(a8, somm::Sampler{}, 0.5f);
+  ASSERT_EQ(s.materials.size(), 1u);
+  ASSERT_EQ(s.geometries.size(), 1u);
+  s.materials.resize(3, s.materials[0]);
+  s.materials[1].name = "same texture";
+  s.materials[2].name = "scaled";
+  s.materials[2].alpha = a8scaled;
+  s.geometries.resize(3, s.geometries[0]);
+  for (uint32_t g = 0; g < 3; ++g) {
+    s.geometries[g].material = g;
+    s.geometries[g].name = "quad" + std::to_string(g);
+    if (g) s.instances.push_back(somm::Instance{g, s.instances[0].transform});
+  }
+  auto bytes = somm::encodeGlb(s, dir.file("x.glb"));
+  ASSERT_TRUE(bytes.ok()) << bytes.error().message;
+  ASSERT_TRUE(somm::writeGlb(s, dir.file("x.glb")).ok());
+  auto back = somm::loadScene(dir.file("x.glb"));
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  ASSERT_EQ(back->materials.size(), 3u);
+  for (size_t i = 0; i < 3; ++i) {
+    SCOPED_TRACE(i);
+    ASSERT_TRUE(back->materials[i].alpha);
+    const somm::AlphaTexture& b = *back->materials[i].alpha;
+    EXPECT_EQ(b.storage, i < 2 ? somm::AlphaStorage::UInt8 : somm::AlphaStorage::UInt16);
+    const somm::AlphaTexture& a = *s.materials[i].alpha;
+    for (size_t t = 0; t < a.texelCount(); ++t)
+      ASSERT_NEAR(b.texel(t), a.texel(t), i < 2 ? 0.0 : 0.5 / 65535 + 1e-7) << t;
+  }
+  // Two images: the shared 8-bit one and the scaled alpha's.
+  const std::vector<uint8_t>& glb = *bytes;
+  uint32_t jlen = 0;
+  std::memcpy(&jlen, glb.data() + 12, 4);
+  const std::string json(reinterpret_cast<const char*>(glb.data()) + 20, jlen);
+  size_t images = 0;
+  for (size_t at = json.find("image/png"); at != std::string::npos; at = json.find("image/png", at + 1))
+    ++images;
+  EXPECT_EQ(images, 2u);
 }
 
 TEST(GlbWriter, ErrorsAndAtomicity) {

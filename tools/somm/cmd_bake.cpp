@@ -172,9 +172,10 @@ int run(const Options& o) {
   // ---- scene ----
   somm::LoadOptions lo;
   lo.blendAsMask = o.material.blendAsMask;
-  lo.loadColor = false;  // the bake needs only the alpha
-  // and the UVs (a glTF output holds the geometry too)
+  // The bake needs only the alpha and the UVs. A glTF output holds the geometry too, and for a scene that is not glTF
+  // already (an OBJ) its materials' base colours, written into the output's textures.
   lo.loadPositions = !o.output.empty() && somm::isGltfPath(o.output);
+  lo.loadColor = lo.loadPositions && !somm::isGltfPath(o.scene);
   if (!applyLimits("bake", o.limits, lo.limits)) return kExitUsage;
   if (!o.output.empty())
     if (somm::Status s = somm::checkOutputPath(o.output, {o.scene}); !s) return usage(s.error().message);

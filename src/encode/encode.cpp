@@ -5,6 +5,7 @@
 #include <array>
 #include <atomic>
 #include <map>
+#include <stdexcept>
 #include <tuple>
 #include <unordered_map>
 #include <unordered_set>
@@ -122,8 +123,18 @@ class BitWriter {
 std::vector<std::vector<uint8_t>> nodeValues(const Micromap& map) {
   const uint32_t level = map.level();
   std::vector<std::vector<uint8_t>> vals(level + 1);
-  vals[level].resize(map.size());
-  for (uint32_t i = 0; i < map.size(); ++i) vals[level][i] = uint8_t(map.get(i));
+  // The leaves from the packed bytes (LSB first: 4 states a byte, or 8 in 2-state), the rest one by one.
+  const size_t n = map.size();
+  vals[level].resize(n);
+  uint8_t* leaf = vals[level].data();
+  const uint8_t* bytes = map.bytes().data();
+  const uint32_t bits = bitsPerState(map.format()), perByte = 8 / bits, mask = (1u << bits) - 1;
+  size_t i = 0;
+  for (; i + perByte <= n; i += perByte) {
+    const uint32_t x = bytes[i / perByte];
+    for (uint32_t k = 0; k < perByte; ++k) leaf[i + k] = uint8_t((x >> (bits * k)) & mask);
+  }
+  for (; i < n; ++i) leaf[i] = uint8_t(map.get(uint32_t(i)));
   for (uint32_t d = level; d-- > 0;) {
     const std::vector<uint8_t>& c = vals[d + 1];
     std::vector<uint8_t>& v = vals[d];
@@ -460,9 +471,30 @@ constexpr uint32_t kNodeCode = 4;  // child codes: a state s < 4 (uniform child)
 // Unique records per (format, height) = sdag region index: leaves keyed by their 16 states (2 bits each in
 // key[0]), nodes by their 16 child codes. Ids in order of first appearance (children before parents).
 struct DagTables {
+  // A region's records in the order they were first interned (a record's id is its position) and an open-addressing
+  // table over them: slot = (the key's hash's high half << 32) | (id + 1), 0 = empty; at most half full. (A
+  // std::unordered_map held a node, a bucket pointer and a second copy of each 64-byte key: ~3× the memory, and most
+  // of sdag's build time went to allocating and freeing its nodes.)
   struct Table {
-    std::unordered_map<Key, uint32_t, KeyHash> ids;
     std::vector<Key> records;
+    std::vector<uint64_t> slots;
+
+    // The slot holding k's id (hash h), or the empty slot where it goes.
+    size_t probe(const Key& k, uint64_t h) const noexcept {
+      const size_t mask = slots.size() - 1;
+      const uint64_t tag = h & ~uint64_t(0xffffffffu);
+      for (size_t i = size_t(h) & mask;; i = (i + 1) & mask) {
+        const uint64_t e = slots[i];
+        if (e == 0 || ((e & ~uint64_t(0xffffffffu)) == tag && records[uint32_t(e) - 1] == k)) return i;
+      }
+    }
+    void grow() {
+      slots.assign(std::max<size_t>(64, slots.size() * 2), 0);
+      for (size_t id = 0; id < records.size(); ++id) {
+        const uint64_t h = KeyHash{}(records[id]);
+        slots[probe(records[id], h)] = (h & ~uint64_t(0xffffffffu)) | (uint64_t(id) + 1);
+      }
+    }
   };
   std::array<Table, kSdagRegions> t;
   std::vector<std::pair<uint32_t, uint32_t>>* created = nullptr;  // (region, id) of every new record
@@ -472,14 +504,23 @@ struct DagTables {
 
   uint32_t intern(uint32_t region, const Key& k) {
     Table& tb = t[region];
-    const auto [it, fresh] = tb.ids.emplace(k, uint32_t(tb.records.size()));
-    if (fresh) {
-      tb.records.push_back(k);
-      if (created) created->emplace_back(region, it->second);
-    }
-    return it->second;
+    if (2 * (tb.records.size() + 1) > tb.slots.size()) tb.grow();
+    const uint64_t h = KeyHash{}(k);
+    const size_t i = tb.probe(k, h);
+    if (tb.slots[i] != 0) return uint32_t(tb.slots[i]) - 1;
+    const uint32_t id = uint32_t(tb.records.size());
+    tb.slots[i] = (h & ~uint64_t(0xffffffffu)) | (uint64_t(id) + 1);
+    tb.records.push_back(k);
+    if (created) created->emplace_back(region, id);
+    return id;
   }
-  uint32_t find(uint32_t region, const Key& k) const { return t[region].ids.at(k); }
+  // The id of a record known to be in the region.
+  uint32_t find(uint32_t region, const Key& k) const {
+    const Table& tb = t[region];
+    const size_t i = tb.slots.empty() ? 0 : tb.probe(k, KeyHash{}(k));
+    if (tb.slots.empty() || tb.slots[i] == 0) throw std::out_of_range("sdag: record not interned");
+    return uint32_t(tb.slots[i]) - 1;
+  }
 };
 
 using NodeVals = std::vector<std::vector<uint8_t>>;

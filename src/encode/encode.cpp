@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <cstring>
 #include <map>
 #include <stdexcept>
 #include <tuple>
@@ -140,8 +141,10 @@ std::vector<std::vector<uint8_t>> nodeValues(const Micromap& map) {
     std::vector<uint8_t>& v = vals[d];
     v.resize(c.size() / 4);
     for (size_t i = 0; i < v.size(); ++i) {
-      const uint8_t a = c[4 * i];
-      v[i] = (a != kMixed && c[4 * i + 1] == a && c[4 * i + 2] == a && c[4 * i + 3] == a) ? a : kMixed;
+      uint32_t w;  // the 4 children's values, one word
+      std::memcpy(&w, c.data() + 4 * i, 4);
+      const uint8_t a = uint8_t(w);
+      v[i] = (a != kMixed && w == a * 0x01010101u) ? a : kMixed;
     }
   }
   return vals;

@@ -1093,7 +1093,8 @@ void putSdagNode(BitWriter& out, const Key& k, uint32_t slots, const SdagLayout&
 
 struct DagMapOut {
   MapKind kind = MapKind::Flat;
-  std::vector<uint8_t> blob;  // non-DAG kinds
+  std::vector<uint8_t>
+      blob;  // non-DAG kinds (buildSdagWith's input: Flat with no blob = the map's own bytes)
 };
 
 // A record of region k, then its local children's subtrees in slot order (pre-order); at[k][id] = its offset.
@@ -1552,8 +1553,16 @@ struct SdagBuild {
 // sdag with per-map alternatives: pass 1 puts every map in the DAG and charges each the bytes of the records
 // it adds first (with pass 1's widths); a map keeps its alternative blob when that is smaller (ties: a flat
 // alternative wins, a dfs / rank one loses), and pass 2 builds the DAG of the others.
-SdagBuild buildSdagWith(const std::vector<Micromap>& maps, std::vector<encode::DagMapOut> choice,
+SdagBuild buildSdagWith(const std::vector<Micromap>& maps, const std::vector<encode::DagMapOut>& choice,
                         bool allowXform) {
+  // Which maps go into the DAG (the others keep their blob). Only those blobs are copied into the result: a copy of
+  // every alternative (flat: the whole array again) was most of the encoder's peak memory.
+  std::vector<uint8_t> inDag(maps.size(), 0);
+  // A flat alternative with an empty blob stands for the map's own bytes (copied only if the map keeps it).
+  auto blobBytes = [&](size_t i) -> uint64_t {
+    return choice[i].kind == MapKind::Flat && choice[i].blob.empty() ? maps[i].bytes().size()
+                                                                     : choice[i].blob.size();
+  };
   bool charged = false;
   {
     encode::DagTables tables;
@@ -1569,21 +1578,28 @@ SdagBuild buildSdagWith(const std::vector<Micromap>& maps, std::vector<encode::D
     for (size_t i = 0; i < maps.size(); ++i) {
       uint64_t own = encode::sdagRootBytes(roots[i], l);
       for (const auto& [k, id] : created[i]) own += encode::sdagRecordBytes(k, id, tables, l);
-      if (own < choice[i].blob.size() || (own == choice[i].blob.size() && choice[i].kind != MapKind::Flat)) {
-        choice[i].kind = MapKind::Sdag;
-        choice[i].blob.clear();
-      }
+      const uint64_t alt = blobBytes(i);
+      inDag[i] = own < alt || (own == alt && choice[i].kind != MapKind::Flat);
     }
   }
   encode::DagTables tables;
   tables.sdag = true;
   std::vector<encode::DagRoot> roots;
-  for (size_t i = 0; i < maps.size(); ++i)
-    roots.push_back(choice[i].kind == MapKind::Sdag ? encode::internMap(maps[i], tables)
-                                                    : encode::DagRoot{maps[i].level(), maps[i].format()});
+  std::vector<encode::DagMapOut> kinds(maps.size());
+  for (size_t i = 0; i < maps.size(); ++i) {
+    if (inDag[i]) {
+      kinds[i].kind = MapKind::Sdag;
+      roots.push_back(encode::internMap(maps[i], tables));
+    } else {
+      kinds[i] = choice[i];
+      if (kinds[i].kind == MapKind::Flat && kinds[i].blob.empty())
+        kinds[i].blob.assign(maps[i].bytes().begin(), maps[i].bytes().end());
+      roots.push_back(encode::DagRoot{maps[i].level(), maps[i].format()});
+    }
+  }
   SdagBuild b;
-  b.data = encode::emitSdag(tables, roots, choice, b.offsets, b.dir, allowXform);
-  b.kinds = std::move(choice);
+  b.data = encode::emitSdag(tables, roots, kinds, b.offsets, b.dir, allowXform);
+  b.kinds = std::move(kinds);
   b.xformCharged = charged;
   return b;
 }
@@ -1687,7 +1703,8 @@ Result<EncodedArray> EncodedArray::build(const OmmArray& array, Encoding encodin
     data = encode::emitCsm(tables, roots, offsets);
     kinds.assign(maps.size(), encode::DagMapOut{MapKind::Csm, {}});
   } else if (encoding == Encoding::Sdag || encoding == Encoding::Hybrid) {
-    SdagBuild best = buildSdag(maps, blobKinds(maps, Encoding::Flat));
+    // Every map's alternative is flat: empty blobs stand for the maps' own bytes (no copy of the array).
+    SdagBuild best = buildSdag(maps, std::vector<encode::DagMapOut>(maps.size()));
     if (encoding == Encoding::Sdag && best.data.size() > encode::kSdagDirectoryBytes + flatTotal) {
       // Cannot happen with the per-map choice unless sharing shifted; the bound holds regardless.
       std::vector<encode::DagRoot> roots;

@@ -482,20 +482,21 @@ struct DagTables {
     std::vector<Key> records;
     std::vector<uint64_t> slots;
 
+    static constexpr uint64_t kTag = ~uint64_t(0xffffffffu);
+    static uint64_t slotOf(uint64_t h, size_t id) noexcept { return (h & kTag) | (uint64_t(id) + 1); }
     // The slot holding k's id (hash h), or the empty slot where it goes.
     size_t probe(const Key& k, uint64_t h) const noexcept {
       const size_t mask = slots.size() - 1;
-      const uint64_t tag = h & ~uint64_t(0xffffffffu);
       for (size_t i = size_t(h) & mask;; i = (i + 1) & mask) {
         const uint64_t e = slots[i];
-        if (e == 0 || ((e & ~uint64_t(0xffffffffu)) == tag && records[uint32_t(e) - 1] == k)) return i;
+        if (e == 0 || ((e & kTag) == (h & kTag) && records[uint32_t(e) - 1] == k)) return i;
       }
     }
     void grow() {
       slots.assign(std::max<size_t>(64, slots.size() * 2), 0);
       for (size_t id = 0; id < records.size(); ++id) {
         const uint64_t h = KeyHash{}(records[id]);
-        slots[probe(records[id], h)] = (h & ~uint64_t(0xffffffffu)) | (uint64_t(id) + 1);
+        slots[probe(records[id], h)] = slotOf(h, id);
       }
     }
   };
@@ -512,7 +513,7 @@ struct DagTables {
     const size_t i = tb.probe(k, h);
     if (tb.slots[i] != 0) return uint32_t(tb.slots[i]) - 1;
     const uint32_t id = uint32_t(tb.records.size());
-    tb.slots[i] = (h & ~uint64_t(0xffffffffu)) | (uint64_t(id) + 1);
+    tb.slots[i] = Table::slotOf(h, id);
     tb.records.push_back(k);
     if (created) created->emplace_back(region, id);
     return id;
@@ -520,9 +521,9 @@ struct DagTables {
   // The id of a record known to be in the region.
   uint32_t find(uint32_t region, const Key& k) const {
     const Table& tb = t[region];
-    const size_t i = tb.slots.empty() ? 0 : tb.probe(k, KeyHash{}(k));
-    if (tb.slots.empty() || tb.slots[i] == 0) throw std::out_of_range("sdag: record not interned");
-    return uint32_t(tb.slots[i]) - 1;
+    const uint64_t e = tb.slots.empty() ? 0 : tb.slots[tb.probe(k, KeyHash{}(k))];
+    if (e == 0) throw std::out_of_range("sdag: record not interned");
+    return uint32_t(e) - 1;
   }
 };
 
@@ -1093,8 +1094,8 @@ void putSdagNode(BitWriter& out, const Key& k, uint32_t slots, const SdagLayout&
 
 struct DagMapOut {
   MapKind kind = MapKind::Flat;
-  std::vector<uint8_t>
-      blob;  // non-DAG kinds (buildSdagWith's input: Flat with no blob = the map's own bytes)
+  // Non-DAG kinds; in buildSdagWith's input, Flat with no blob stands for the map's own bytes.
+  std::vector<uint8_t> blob;
 };
 
 // A record of region k, then its local children's subtrees in slot order (pre-order); at[k][id] = its offset.

@@ -26,25 +26,9 @@ void put32be(std::vector<uint8_t>& v, uint32_t x) {
   for (int s = 24; s >= 0; s -= 8) v.push_back(uint8_t(x >> s));
 }
 
-uint32_t crc32(const uint8_t* p, size_t n) {
-  static uint32_t table[256];
-  static bool init = [] {
-    for (uint32_t i = 0; i < 256; ++i) {
-      uint32_t c = i;
-      for (int k = 0; k < 8; ++k) c = (c >> 1) ^ (0xEDB88320u & (0u - (c & 1u)));
-      table[i] = c;
-    }
-    return true;
-  }();
-  (void)init;
-  uint32_t c = 0xFFFFFFFFu;
-  for (size_t i = 0; i < n; ++i) c = table[(c ^ p[i]) & 0xFF] ^ (c >> 8);
-  return ~c;
-}
-
 // A PNG of RGBA rows of `depth` (8 or 16) bits per sample: `pixels` holds the rows one after the other, samples
 // big-endian, without filter bytes. Each row gets the filter (None, Sub, Up or Paeth) whose bytes have the smallest
-// sum of absolute values as signed bytes (libpng's heuristic); the zlib stream is libdeflate's (level 9).
+// sum of absolute values as signed bytes (libpng's heuristic); the zlib stream is libdeflate's (level 6).
 Result<std::vector<uint8_t>> encodePng(uint32_t w, uint32_t h, uint32_t depth,
                                        const std::vector<uint8_t>& pixels) {
   const size_t bpp = depth / 2, rowBytes = size_t(w) * bpp;  // 4 samples of depth / 8 bytes
@@ -96,7 +80,7 @@ Result<std::vector<uint8_t>> encodePng(uint32_t w, uint32_t h, uint32_t depth,
     const size_t start = png.size();
     png.insert(png.end(), type, type + 4);
     if (n) png.insert(png.end(), data, data + n);
-    put32be(png, crc32(png.data() + start, n + 4));
+    put32be(png, libdeflate_crc32(0, png.data() + start, n + 4));
   };
   std::vector<uint8_t> ihdr;
   put32be(ihdr, w);

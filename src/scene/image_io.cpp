@@ -2,6 +2,7 @@
 // somm — image decoding via stb_image (implementation in the Debian libstb).
 #include "image_io.h"
 
+#include <libdeflate.h>
 #include <stb_image.h>
 
 #include <algorithm>
@@ -106,21 +107,6 @@ std::string tgaDataProblem(const uint8_t* p, size_t n, int w, int h) {
 // A palette PNG's indices may exceed its PLTE entries; stb_image then reads its uninitialised palette memory.
 // Returns a copy with PLTE padded to 256 entries (black, opaque unless tRNS says otherwise — what libpng gives
 // for such indices), or nothing when the input needs no change. Chunk CRCs are recomputed.
-uint32_t crc32(const uint8_t* p, size_t n, uint32_t c = 0xFFFFFFFFu) {
-  static uint32_t table[256];
-  static const bool init = [] {
-    for (uint32_t i = 0; i < 256; ++i) {
-      uint32_t v = i;
-      for (int k = 0; k < 8; ++k) v = v & 1 ? 0xEDB88320u ^ (v >> 1) : v >> 1;
-      table[i] = v;
-    }
-    return true;
-  }();
-  (void)init;
-  for (size_t i = 0; i < n; ++i) c = table[(c ^ p[i]) & 0xFF] ^ (c >> 8);
-  return c;
-}
-
 std::vector<uint8_t> padPalette(const uint8_t* p, size_t n) {
   // Called after pngChunkProblem: every chunk fits.
   if (n < 33 || std::memcmp(p + 12, "IHDR", 4) != 0 || p[25] != 3) return {};  // colour type 3: palette
@@ -134,7 +120,7 @@ std::vector<uint8_t> padPalette(const uint8_t* p, size_t n) {
       out.insert(out.end(), hdr, hdr + 8);
       out.insert(out.end(), p + i + 8, p + i + 8 + len);
       out.resize(out.size() + (768 - len), 0);
-      const uint32_t crc = crc32(out.data() + i + 4, 4 + 768) ^ 0xFFFFFFFFu;
+      const uint32_t crc = libdeflate_crc32(0, out.data() + i + 4, 4 + 768);
       for (int s = 24; s >= 0; s -= 8) out.push_back(uint8_t(crc >> s));
       out.insert(out.end(), p + i + 12 + len, p + n);
       return out;

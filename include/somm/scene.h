@@ -111,7 +111,7 @@ Result<Scene> loadScene(const std::string& path, const LoadOptions& options = {}
 
 // Writes a scene as one self-contained .glb that loadScene reads back with the same numbering: geometry i →
 // mesh i (one primitive), instance → node, camera → camera node. A material's alpha texture is stored as the alpha
-// of its base colour PNG (RGB from baseColor when it has the same size, else white) with baseColorFactor alpha 1:
+// of its base colour PNG (RGB from baseColor, resampled to the alpha's size, else white) with baseColorFactor alpha 1:
 // an 8-bit PNG when the alpha is an 8-bit image's without a factor (exact), else a 16-bit one (alpha rounded to
 // multiples of 1/65535); materials with the same textures share one image (docs/gltf.md). Written atomically
 // (temporary file + rename).

@@ -14,6 +14,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <system_error>
+#include <tuple>
 
 #include "somm/io.h"
 #include "somm/scene.h"
@@ -92,20 +93,86 @@ Result<std::vector<uint8_t>> encodePng(uint32_t w, uint32_t h, uint32_t depth,
   return png;
 }
 
-// The base colour texture of a material: RGB from `c` when it has the alpha's size (else white), alpha from `a`
-// (else from `c`, else opaque). 8 bits per sample when that is exact — the alpha's texels are 8-bit values with no
-// factor (they read back as the same alphas), or there is no alpha texture — else 16 bits, alpha rounded to
-// multiples of 1/65535.
-Result<std::vector<uint8_t>> encodeBaseColor(const AlphaTexture* a, const ColorImage* c) {
+// One axis of resampling a colour image of n texels to m: each target texel's source taps (indices, weights).
+// Fewer target texels (n > m): the mean of the source texels whose centres lie in the target texel's footprint
+// [x·n/m, (x + 1)·n/m) (at least one). More (n < m): bilinear at the target texel's centre, taps wrapped as the
+// material's sampler wraps.
+struct Taps {
+  std::vector<uint32_t> first;  // m + 1 offsets into index / weight
+  std::vector<uint32_t> index;
+  std::vector<double> weight;
+};
+
+uint32_t wrapIndex(int64_t i, uint32_t n, Wrap w) {
+  const int64_t N = n;
+  if (w == Wrap::ClampToEdge) return uint32_t(std::clamp<int64_t>(i, 0, N - 1));
+  if (w == Wrap::Repeat) return uint32_t(((i % N) + N) % N);
+  const int64_t p = ((i % (2 * N)) + 2 * N) % (2 * N);  // mirrored repeat
+  return uint32_t(p < N ? p : 2 * N - 1 - p);
+}
+
+Taps axisTaps(uint32_t n, uint32_t m, Wrap w) {
+  Taps t;
+  t.first.reserve(size_t(m) + 1);
+  for (uint32_t x = 0; x < m; ++x) {
+    t.first.push_back(uint32_t(t.index.size()));
+    if (n >= m) {
+      // Source texel i's centre i + ½ in [x·n/m, (x + 1)·n/m): ⌈x·n/m − ½⌉ ≤ i < ⌈(x + 1)·n/m − ½⌉, where
+      // ⌈(2xn − m) / 2m⌉ = ⌊(2xn + m − 1) / 2m⌋ in integers.
+      const uint64_t lo = (2 * uint64_t(x) * n + m - 1) / (2 * uint64_t(m));
+      uint64_t hi = (2 * (uint64_t(x) + 1) * n + m - 1) / (2 * uint64_t(m));
+      if (hi <= lo) hi = lo + 1;
+      hi = std::min<uint64_t>(hi, n);
+      for (uint64_t i = lo; i < hi; ++i) {
+        t.index.push_back(uint32_t(i));
+        t.weight.push_back(1.0 / double(hi - lo));
+      }
+    } else {
+      const double s = (double(x) + 0.5) * double(n) / double(m) - 0.5;
+      const double f0 = std::floor(s), f = s - f0;
+      t.index.push_back(wrapIndex(int64_t(f0), n, w));
+      t.weight.push_back(1 - f);
+      t.index.push_back(wrapIndex(int64_t(f0) + 1, n, w));
+      t.weight.push_back(f);
+    }
+  }
+  t.first.push_back(uint32_t(t.index.size()));
+  return t;
+}
+
+// The colour image resampled to w × h (RGBA, alpha unused): itself when it has that size.
+std::vector<uint8_t> colourAt(const ColorImage& c, uint32_t w, uint32_t h, const Sampler& s) {
+  if (c.width == w && c.height == h) return c.rgba;
+  const Taps tx = axisTaps(c.width, w, s.wrapS), ty = axisTaps(c.height, h, s.wrapT);
+  std::vector<uint8_t> out(size_t(w) * h * 4, 255);
+  for (uint32_t y = 0; y < h; ++y)
+    for (uint32_t x = 0; x < w; ++x)
+      for (size_t k = 0; k < 3; ++k) {
+        double v = 0;
+        for (uint32_t b = ty.first[y]; b < ty.first[y + 1]; ++b)
+          for (uint32_t a = tx.first[x]; a < tx.first[x + 1]; ++a)
+            v += ty.weight[b] * tx.weight[a] *
+                 double(c.rgba[(size_t(ty.index[b]) * c.width + tx.index[a]) * 4 + k]);
+        out[(size_t(y) * w + x) * 4 + k] = uint8_t(std::clamp(std::lround(v), 0L, 255L));
+      }
+  return out;
+}
+
+// The base colour texture of a material: RGB from `c` (resampled to the alpha's size when it has another, see
+// colourAt; else white), alpha from `a` (else from `c`, else opaque). 8 bits per sample when that is exact — the
+// alpha's texels are 8-bit values with no factor (they read back as the same alphas), or there is no alpha texture
+// — else 16 bits, alpha rounded to multiples of 1/65535.
+Result<std::vector<uint8_t>> encodeBaseColor(const AlphaTexture* a, const ColorImage* c, const Sampler& s) {
   const uint32_t w = a ? a->width : c->width, h = a ? a->height : c->height;
-  const bool useColor = c && c->width == w && c->height == h;
+  const std::vector<uint8_t> rgb = c ? colourAt(*c, w, h, s) : std::vector<uint8_t>();
+  const bool useColor = c != nullptr;
   const bool exact8 = !a || (a->storage == AlphaStorage::UInt8 && a->scale == 1.0f);
   const size_t n = size_t(w) * h;
   if (exact8) {
     std::vector<uint8_t> px(n * 4);
     for (size_t i = 0; i < n; ++i) {
-      for (size_t k = 0; k < 3; ++k) px[i * 4 + k] = useColor ? c->rgba[i * 4 + k] : 255;
-      px[i * 4 + 3] = a ? a->alpha8[i] : useColor ? c->rgba[i * 4 + 3] : 255;
+      for (size_t k = 0; k < 3; ++k) px[i * 4 + k] = useColor ? rgb[i * 4 + k] : 255;
+      px[i * 4 + 3] = a ? a->alpha8[i] : useColor ? rgb[i * 4 + 3] : 255;
     }
     return encodePng(w, h, 8, px);
   }
@@ -115,7 +182,7 @@ Result<std::vector<uint8_t>> encodeBaseColor(const AlphaTexture* a, const ColorI
     px[at + 1] = uint8_t(v & 0xFF);
   };
   for (size_t i = 0; i < n; ++i) {
-    for (size_t k = 0; k < 3; ++k) put16(i * 8 + 2 * k, useColor ? c->rgba[i * 4 + k] * 257u : 65535u);
+    for (size_t k = 0; k < 3; ++k) put16(i * 8 + 2 * k, useColor ? rgb[i * 4 + k] * 257u : 65535u);
     const float v = a->texel(i);
     put16(i * 8 + 6,
           std::isfinite(v) ? uint32_t(std::lround(std::clamp(double(v), 0.0, 1.0) * 65535.0)) : 0u);
@@ -145,7 +212,8 @@ Result<std::vector<uint8_t>> encodeGlb(const Scene& scene, const std::string& pa
   };
 
   json images = json::array(), textures = json::array(), samplers = json::array(), materials = json::array();
-  std::map<std::pair<const void*, const void*>, size_t> imageOf;
+  // Key: the alpha and colour images, and the wraps a colour of another size than the alpha is resampled with.
+  std::map<std::tuple<const void*, const void*, int, int>, size_t> imageOf;
   std::map<std::array<int, 3>, size_t> samplerOf;
   std::map<std::pair<size_t, size_t>, size_t> textureOf;
   for (const Material& m : scene.materials) {
@@ -159,13 +227,17 @@ Result<std::vector<uint8_t>> encodeGlb(const Scene& scene, const std::string& pa
     const ColorImage* c = m.baseColor.get();
     if (a && (a->width == 0 || a->height == 0 || !a->consistent()))
       return fail(ErrorCode::InvalidArgument, "material '" + m.name + "' has an inconsistent alpha texture");
-    if (c && c->rgba.size() != size_t(c->width) * c->height * 4) c = nullptr;
+    if (c && (c->width == 0 || c->height == 0 || c->rgba.size() != size_t(c->width) * c->height * 4))
+      c = nullptr;
     if (a || c) {
       // Materials that share their textures and sampler share one image and one texture.
-      const auto imageKey = std::make_pair(static_cast<const void*>(a), static_cast<const void*>(c));
+      const bool resampled = a && c && (c->width != a->width || c->height != a->height);
+      const auto imageKey =
+          std::make_tuple(static_cast<const void*>(a), static_cast<const void*>(c),
+                          resampled ? int(m.sampler.wrapS) + 1 : 0, resampled ? int(m.sampler.wrapT) + 1 : 0);
       auto img = imageOf.find(imageKey);
       if (img == imageOf.end()) {
-        auto png = encodeBaseColor(a, c);
+        auto png = encodeBaseColor(a, c, m.sampler);
         if (!png.ok()) return fail(png.error().code, "material '" + m.name + "': " + png.error().message);
         images.push_back({{"bufferView", addView(png->data(), png->size())}, {"mimeType", "image/png"}});
         img = imageOf.emplace(imageKey, images.size() - 1).first;

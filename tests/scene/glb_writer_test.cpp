@@ -3,6 +3,7 @@
 // camera.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <memory>
@@ -153,6 +154,69 @@ TEST(GlbWriter, SharedTexturesAndSampleDepth) {
   for (size_t at = json.find("image/png"); at != std::string::npos; at = json.find("image/png", at + 1))
     ++images;
   EXPECT_EQ(images, 2u);
+}
+
+// A colour image of another size than the alpha is resampled to the alpha's size (the alpha the bake tested stays
+// exact): bilinear when enlarged, wrapped as the material's sampler wraps; the mean of the texels under each target
+// texel when reduced.
+TEST(GlbWriter, ColourOfAnotherSizeIsResampled) {
+  TempDir dir;
+  std::vector<uint8_t> v8(4 * 2);
+  for (size_t i = 0; i < v8.size(); ++i) v8[i] = uint8_t(30 * i + 7);
+  auto a8 = std::make_shared<somm::AlphaTexture>(somm::AlphaTexture::fromUInt8(4, 2, v8));
+  auto red_blue =
+      std::make_shared<somm::ColorImage>(somm::ColorImage{2, 1, {255, 0, 0, 255, 0, 0, 255, 255}});
+  auto wide = std::make_shared<somm::ColorImage>(somm::ColorImage{8, 2, {}});
+  for (uint32_t t = 0; t < 16; ++t) {
+    const uint8_t x = uint8_t(t % 8), y = uint8_t(t / 8);
+    wide->rgba.insert(wide->rgba.end(), {uint8_t(10 * x), uint8_t(100 + 50 * y), uint8_t(x * x), 255});
+  }
+  somm::Scene s = somm::makeQuadScene(
+      a8, somm::Sampler{somm::Wrap::ClampToEdge, somm::Wrap::ClampToEdge, somm::Filter::Linear}, 0.5f);
+  s.materials.resize(3, s.materials[0]);
+  s.materials[0].baseColor = red_blue;
+  s.materials[1].baseColor = red_blue;
+  s.materials[1].name = "repeat";
+  s.materials[1].sampler.wrapS = somm::Wrap::Repeat;
+  s.materials[2].baseColor = wide;
+  s.materials[2].name = "reduced";
+  s.geometries.resize(3, s.geometries[0]);
+  for (uint32_t g = 0; g < 3; ++g) {
+    s.geometries[g].material = g;
+    s.geometries[g].name = "quad" + std::to_string(g);
+    if (g) s.instances.push_back(somm::Instance{g, s.instances[0].transform});
+  }
+  ASSERT_TRUE(somm::writeGlb(s, dir.file("c.glb")).ok());
+  auto back = somm::loadScene(dir.file("c.glb"));
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  ASSERT_EQ(back->materials.size(), 3u);
+  // Enlarged 2 → 4 columns (1 → 2 rows: both rows read row 0): source coordinate (x + ½)·2/4 − ½ = −¼, ¼, ¾, 1¼.
+  const std::array<std::array<int, 3>, 4> clamp = {{{255, 0, 0}, {191, 0, 64}, {64, 0, 191}, {0, 0, 255}}};
+  std::array<std::array<int, 3>, 4> repeat = clamp;
+  repeat[0] = {191, 0, 64};  // −¼: ¾ of texel 0, ¼ of texel −1 = texel 1
+  repeat[3] = {64, 0, 191};  // 1¼: ¾ of texel 1, ¼ of texel 2 = texel 0
+  for (size_t mi = 0; mi < 3; ++mi) {
+    SCOPED_TRACE(mi);
+    const somm::Material& m = back->materials[mi];
+    ASSERT_TRUE(m.baseColor && m.alpha);
+    ASSERT_EQ(m.baseColor->width, 4u);
+    ASSERT_EQ(m.baseColor->height, 2u);
+    EXPECT_EQ(m.alpha->values(), a8->values());  // the tested alpha, exact
+    for (uint32_t y = 0; y < 2; ++y)
+      for (uint32_t x = 0; x < 4; ++x) {
+        const uint8_t* p = &m.baseColor->rgba[(size_t(y) * 4 + x) * 4];
+        std::array<int, 3> want;
+        if (mi == 2) {
+          // Reduced 8 → 4 columns: texels 2x and 2x + 1 (rows 2 → 2: the row itself).
+          const int x0 = int(2 * x), x1 = x0 + 1;
+          want = {5 * (x0 + x1), 100 + 50 * int(y), int(std::lround((x0 * x0 + x1 * x1) / 2.0))};
+        } else {
+          want = (mi == 0 ? clamp : repeat)[x];
+        }
+        EXPECT_EQ((std::array<int, 3>{p[0], p[1], p[2]}), want) << x << "," << y;
+        EXPECT_EQ(p[3], v8[size_t(y) * 4 + x]);
+      }
+  }
 }
 
 TEST(GlbWriter, ErrorsAndAtomicity) {

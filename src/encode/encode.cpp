@@ -121,22 +121,44 @@ class BitWriter {
 
 // vals[d][i]: state of node i at depth d when its subtree is uniform, kMixed otherwise. Node i at depth d
 // covers the micro-triangles [i·4^(L-d), (i+1)·4^(L-d)); its children are 4i..4i+3 at depth d+1.
-std::vector<std::vector<uint8_t>> nodeValues(const Micromap& map) {
+// `leaves` false (level ≥ 2 only): vals[L] (a byte per micro-triangle, most of the work and memory at high levels)
+// is left empty and vals[L − 1] is read straight from the packed bytes — a node of depth L − 1 is one byte of a
+// 4-state map (uniform: 0x00, 0x55, 0xAA, 0xFF) or one nibble of a 2-state map (0x0, 0xF); the DAG builders read
+// the leaves from the map's bytes (internRecord).
+std::vector<std::vector<uint8_t>> nodeValues(const Micromap& map, bool leaves = true) {
   const uint32_t level = map.level();
   std::vector<std::vector<uint8_t>> vals(level + 1);
-  // The leaves from the packed bytes (LSB first: 4 states a byte, or 8 in 2-state), the rest one by one.
   const size_t n = map.size();
-  vals[level].resize(n);
-  uint8_t* leaf = vals[level].data();
   const uint8_t* bytes = map.bytes().data();
   const uint32_t bits = bitsPerState(map.format()), perByte = 8 / bits, mask = (1u << bits) - 1;
-  size_t i = 0;
-  for (; i + perByte <= n; i += perByte) {
-    const uint32_t x = bytes[i / perByte];
-    for (uint32_t k = 0; k < perByte; ++k) leaf[i + k] = uint8_t((x >> (bits * k)) & mask);
+  uint32_t below = level;  // the deepest depth made
+  if (!leaves && level >= 2) {
+    below = level - 1;
+    std::vector<uint8_t>& v = vals[below];
+    v.resize(n / 4);
+    if (map.format() == Format::FourState) {
+      for (size_t i = 0; i < v.size(); ++i) {
+        const uint8_t b = bytes[i];
+        v[i] = b % 0x55u == 0 ? uint8_t(b / 0x55u) : kMixed;  // 0x00, 0x55, 0xAA, 0xFF: all 0, 1, 2, 3
+      }
+    } else {
+      for (size_t i = 0; i < v.size(); ++i) {
+        const uint32_t nib = (uint32_t(bytes[i / 2]) >> (4 * (i & 1u))) & 15u;
+        v[i] = nib == 0 ? 0 : nib == 15 ? 1 : kMixed;
+      }
+    }
+  } else {
+    // The leaves from the packed bytes (LSB first: 4 states a byte, or 8 in 2-state), the rest one by one.
+    vals[level].resize(n);
+    uint8_t* leaf = vals[level].data();
+    size_t i = 0;
+    for (; i + perByte <= n; i += perByte) {
+      const uint32_t x = bytes[i / perByte];
+      for (uint32_t k = 0; k < perByte; ++k) leaf[i + k] = uint8_t((x >> (bits * k)) & mask);
+    }
+    for (; i < n; ++i) leaf[i] = uint8_t(map.get(uint32_t(i)));
   }
-  for (; i < n; ++i) leaf[i] = uint8_t(map.get(uint32_t(i)));
-  for (uint32_t d = level; d-- > 0;) {
+  for (uint32_t d = below; d-- > 0;) {
     const std::vector<uint8_t>& c = vals[d + 1];
     std::vector<uint8_t>& v = vals[d];
     v.resize(c.size() / 4);
@@ -265,7 +287,7 @@ Error corrupt(std::string_view msg) {
 }  // namespace
 
 TreeShape treeShape(const Micromap& map) {
-  const auto vals = nodeValues(map);
+  const auto vals = nodeValues(map, false);  // depths below the level only
   TreeShape s;
   for (uint32_t d = 0; d < map.level(); ++d)
     for (uint8_t v : vals[d])
@@ -527,7 +549,13 @@ struct DagTables {
   }
 };
 
-using NodeVals = std::vector<std::vector<uint8_t>>;
+// A map's node values without the leaves (nodeValues(map, false)) and its packed bytes, where internRecord reads
+// the leaves.
+struct NodeVals {
+  std::vector<std::vector<uint8_t>> v;
+  const uint8_t* bytes = nullptr;
+  const std::vector<uint8_t>& operator[](size_t d) const { return v[d]; }
+};
 
 uint32_t internRecord(const NodeVals& vals, uint32_t level, Format f, uint32_t d, uint64_t i,
                       DagTables& tables);
@@ -557,7 +585,18 @@ uint32_t internRecord(const NodeVals& vals, uint32_t level, Format f, uint32_t d
   const uint32_t h = (level - d) / 2;
   Key k{};
   if (h == 1) {
-    for (uint32_t s = 0; s < 16; ++s) k[0] |= uint32_t(vals[level][16 * i + s]) << (2 * s);
+    // The 16 leaves 16i .. 16i + 15, 2 bits each (state s at bits 2s): a 4-state map's 4 bytes as they are, a
+    // 2-state map's 2 bytes with each bit spread to 2.
+    if (f == Format::FourState) {
+      const uint8_t* p = vals.bytes + 4 * i;
+      k[0] = uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24;
+    } else {
+      uint32_t x = uint32_t(vals.bytes[2 * i]) | uint32_t(vals.bytes[2 * i + 1]) << 8;
+      x = (x | x << 8) & 0x00FF00FFu;  // bit s → bit 2s
+      x = (x | x << 4) & 0x0F0F0F0Fu;
+      x = (x | x << 2) & 0x33333333u;
+      k[0] = (x | x << 1) & 0x55555555u;
+    }
   } else {
     for (uint32_t s = 0; s < 16; ++s) k[s] = internSubtree(vals, level, f, d + 2, 16 * i + s, tables);
   }
@@ -594,7 +633,7 @@ DagRoot internMap(const Micromap& m, DagTables& tables) {
     for (uint32_t i = 0; i < m.size(); ++i) r.byte = uint8_t(r.byte | uint32_t(m.get(i)) << (b * i));
     return r;
   }
-  const NodeVals vals = nodeValues(m);
+  const NodeVals vals{nodeValues(m, false), m.bytes().data()};
   if (r.level % 2 == 0) {
     r.id = internRecord(vals, r.level, r.format, 0, 0, tables);
   } else {

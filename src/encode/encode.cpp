@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <cassert>
 #include <cstring>
 #include <map>
 #include <stdexcept>
@@ -943,8 +944,24 @@ std::pair<uint64_t, uint64_t> placeParents(SdagLayout& l, uint32_t k, const DagT
   const auto& recs = tables.t[k + 1].records;
   uint64_t reach = 0, total = 0;
   l.own[k + 1].resize(recs.size());
+  // What a reference to each record of region k costs in a parent (sdagNodeBytes' per-child bits), once per record
+  // rather than once per reference. A local record's cost does not depend on its reference (set below).
+  std::vector<uint32_t> cost(tables.t[k].records.size());
+  for (uint32_t id = 0; id < cost.size(); ++id)
+    cost[id] = l.refBits(k, id) + (l.mid[k] != 0 && !l.isShort(k, id)) +
+               (l.hFlags(k) && !l.isShort(k, id) && !l.isMid(k, id));
+  const uint32_t tierBit = l.tier[k] != 0 ? 1u : 0u;
   for (size_t id = 0; id < recs.size(); ++id) {
-    const uint64_t own = sdagNodeBytes(recs[id], 16, l, k);
+    uint32_t n = 0;
+    uint64_t bits = 0;
+    for (uint32_t c : recs[id])
+      if (c >= kNodeCode) {
+        ++n;
+        bits += cost[c - kNodeCode];
+      }
+    bits += 16 + sdagKeyStatesBits(recs[id], 16, n) + tierBit * n;
+    const uint64_t own = (bits + 7) / 8;  // = sdagNodeBytes(recs[id], 16, l, k)
+    assert(own == sdagNodeBytes(recs[id], 16, l, k));
     l.own[k + 1][id] = own;
     total += own;
     uint64_t off = own;
@@ -1604,15 +1621,17 @@ SdagBuild buildSdagWith(const std::vector<Micromap>& maps, const std::vector<enc
                                                                      : choice[i].blob.size();
   };
   bool charged = false;
+  encode::DagTables tables;
+  tables.sdag = true;
+  std::vector<encode::DagRoot> roots;
+  bool all = true;
   {
-    encode::DagTables tables;
-    tables.sdag = true;
     std::vector<std::vector<std::pair<uint32_t, uint32_t>>> created(maps.size());
-    std::vector<encode::DagRoot> roots;
     for (size_t i = 0; i < maps.size(); ++i) {
       tables.created = &created[i];
       roots.push_back(encode::internMap(maps[i], tables));
     }
+    tables.created = nullptr;
     const encode::SdagLayout l = encode::sdagLayout(tables, roots, allowXform);
     charged = (l.xform[0] | l.xform[1]) != 0;
     for (size_t i = 0; i < maps.size(); ++i) {
@@ -1620,12 +1639,22 @@ SdagBuild buildSdagWith(const std::vector<Micromap>& maps, const std::vector<enc
       for (const auto& [k, id] : created[i]) own += encode::sdagRecordBytes(k, id, tables, l);
       const uint64_t alt = blobBytes(i);
       inDag[i] = own < alt || (own == alt && choice[i].kind != MapKind::Flat);
+      all = all && inDag[i];
     }
   }
-  encode::DagTables tables;
-  tables.sdag = true;
-  std::vector<encode::DagRoot> roots;
   std::vector<encode::DagMapOut> kinds(maps.size());
+  if (all) {
+    // Every map stays in the DAG: pass 2 would intern the same maps in the same order into the same tables.
+    for (auto& k : kinds) k.kind = MapKind::Sdag;
+    SdagBuild b;
+    b.data = encode::emitSdag(tables, roots, kinds, b.offsets, b.dir, allowXform);
+    b.kinds = std::move(kinds);
+    b.xformCharged = charged;
+    return b;
+  }
+  tables = encode::DagTables{};
+  tables.sdag = true;
+  roots.clear();
   for (size_t i = 0; i < maps.size(); ++i) {
     if (inDag[i]) {
       kinds[i].kind = MapKind::Sdag;

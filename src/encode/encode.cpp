@@ -84,6 +84,26 @@ const char* mapKindName(MapKind k) noexcept {
 namespace encode {
 namespace {
 
+// A map as the encoders read it: level, format and packed bytes, owned elsewhere (a Micromap, or the data of the
+// array EncodedArray::build encodes: no copy of each distinct map).
+class MapRef {
+ public:
+  MapRef(const Micromap& m) noexcept  // NOLINT(google-explicit-constructor)
+      : bytes_(m.bytes()), level_(m.level()), format_(m.format()) {}
+  MapRef(const uint8_t* bytes, uint32_t level, Format format) noexcept
+      : bytes_(bytes, micromapDataBytes(level, format)), level_(level), format_(format) {}
+  uint32_t level() const noexcept { return level_; }
+  Format format() const noexcept { return format_; }
+  uint32_t size() const noexcept { return microTriangleCount(level_); }
+  State get(uint32_t index) const noexcept { return readPackedState(bytes_.data(), format_, index); }
+  Span<const uint8_t> bytes() const noexcept { return bytes_; }
+
+ private:
+  Span<const uint8_t> bytes_;
+  uint32_t level_;
+  Format format_;
+};
+
 constexpr uint8_t kMixed = 0xff;
 
 class BitWriter {
@@ -126,7 +146,7 @@ class BitWriter {
 // is left empty and vals[L − 1] is read straight from the packed bytes — a node of depth L − 1 is one byte of a
 // 4-state map (uniform: 0x00, 0x55, 0xAA, 0xFF) or one nibble of a 2-state map (0x0, 0xF); the DAG builders read
 // the leaves from the map's bytes (internRecord).
-std::vector<std::vector<uint8_t>> nodeValues(const Micromap& map, bool leaves = true) {
+std::vector<std::vector<uint8_t>> nodeValues(MapRef map, bool leaves = true) {
   const uint32_t level = map.level();
   std::vector<std::vector<uint8_t>> vals(level + 1);
   const size_t n = map.size();
@@ -185,7 +205,7 @@ void emitDfs(const std::vector<std::vector<uint8_t>>& vals, uint32_t d, uint32_t
   for (uint32_t c = 0; c < 4; ++c) emitDfs(vals, d + 1, 4 * i + c, bps, t, v);
 }
 
-std::vector<uint8_t> encodeDfs(const Micromap& map) {
+std::vector<uint8_t> encodeDfs(MapRef map) {
   const auto vals = nodeValues(map);
   const uint32_t bps = bitsPerState(map.format());
   uint64_t internal = 0;
@@ -200,7 +220,7 @@ std::vector<uint8_t> encodeDfs(const Micromap& map) {
   return out.bytes();
 }
 
-std::vector<uint8_t> encodeRank(const Micromap& map) {
+std::vector<uint8_t> encodeRank(MapRef map) {
   const auto vals = nodeValues(map);
   const uint32_t level = map.level();
   const uint32_t bps = bitsPerState(map.format());
@@ -299,7 +319,10 @@ TreeShape treeShape(const Micromap& map) {
   return s;
 }
 
-std::vector<uint8_t> encodeMap(const Micromap& map, MapKind kind) {
+namespace {
+
+// encodeMap of a map owned elsewhere.
+std::vector<uint8_t> encodeBlob(MapRef map, MapKind kind) {
   switch (kind) {
     case MapKind::Flat: {
       const auto b = map.bytes();
@@ -314,6 +337,12 @@ std::vector<uint8_t> encodeMap(const Micromap& map, MapKind kind) {
       break;  // array-wide DAGs: EncodedArray::build
   }
   return {};
+}
+
+}  // namespace
+
+std::vector<uint8_t> encodeMap(const Micromap& map, MapKind kind) {
+  return encodeBlob(map, kind);
 }
 
 Micromap decodeMap(const uint8_t* blob, MapKind kind, uint32_t level, Format f) {
@@ -624,7 +653,7 @@ struct DagRoot {
   bool interned = false;               // in the DAG (internMap), not a map kept flat / dfs / rank
 };
 
-DagRoot internMap(const Micromap& m, DagTables& tables) {
+DagRoot internMap(MapRef m, DagTables& tables) {
   DagRoot r;
   r.interned = true;
   r.level = m.level();
@@ -1564,26 +1593,26 @@ constexpr RetiredVersion kRetiredVersions[] = {
 namespace {
 
 // Maps kept flat / dfs / rank, one blob each, in descriptor order (the per-map encodings and plain hybrid).
-std::vector<encode::DagMapOut> blobKinds(const std::vector<Micromap>& maps, Encoding encoding) {
+std::vector<encode::DagMapOut> blobKinds(const std::vector<encode::MapRef>& maps, Encoding encoding) {
   std::vector<encode::DagMapOut> out(maps.size());
   for (size_t i = 0; i < maps.size(); ++i) {
-    const Micromap& m = maps[i];
+    const encode::MapRef m = maps[i];
     encode::DagMapOut& o = out[i];
     switch (encoding) {
       case Encoding::Dfs:
       case Encoding::DfsFast:
         o.kind = MapKind::Dfs;
-        o.blob = encode::encodeMap(m, o.kind);
+        o.blob = encode::encodeBlob(m, o.kind);
         break;
       case Encoding::Rank:
         o.kind = MapKind::Rank;
-        o.blob = encode::encodeMap(m, o.kind);
+        o.blob = encode::encodeBlob(m, o.kind);
         break;
       case Encoding::Hybrid:
         // Smallest wins; ties go to the faster lookup (flat, then rank, then dfs).
-        o.blob = encode::encodeMap(m, MapKind::Flat);
+        o.blob = encode::encodeBlob(m, MapKind::Flat);
         for (MapKind k : {MapKind::Rank, MapKind::Dfs}) {
-          std::vector<uint8_t> b = encode::encodeMap(m, k);
+          std::vector<uint8_t> b = encode::encodeBlob(m, k);
           if (b.size() < o.blob.size()) {
             o.blob = std::move(b);
             o.kind = k;
@@ -1591,7 +1620,7 @@ std::vector<encode::DagMapOut> blobKinds(const std::vector<Micromap>& maps, Enco
         }
         break;
       default:
-        o.blob = encode::encodeMap(m, MapKind::Flat);
+        o.blob = encode::encodeBlob(m, MapKind::Flat);
         break;
     }
   }
@@ -1610,7 +1639,7 @@ struct SdagBuild {
 // sdag with per-map alternatives: pass 1 puts every map in the DAG and charges each the bytes of the records
 // it adds first (with pass 1's widths); a map keeps its alternative blob when that is smaller (ties: a flat
 // alternative wins, a dfs / rank one loses), and pass 2 builds the DAG of the others.
-SdagBuild buildSdagWith(const std::vector<Micromap>& maps, const std::vector<encode::DagMapOut>& choice,
+SdagBuild buildSdagWith(const std::vector<encode::MapRef>& maps, const std::vector<encode::DagMapOut>& choice,
                         bool allowXform) {
   // Which maps go into the DAG (the others keep their blob). Only those blobs are copied into the result: a copy of
   // every alternative (flat: the whole array again) was most of the encoder's peak memory.
@@ -1674,7 +1703,7 @@ SdagBuild buildSdagWith(const std::vector<Micromap>& maps, const std::vector<enc
 }
 // The same with leaf transforms where the layout takes them (chosen per leaf region, height by height; in pass
 // 1 they change what each map is charged), unless the whole array without any is no larger (ties: without).
-SdagBuild buildSdag(const std::vector<Micromap>& maps, const std::vector<encode::DagMapOut>& choice) {
+SdagBuild buildSdag(const std::vector<encode::MapRef>& maps, const std::vector<encode::DagMapOut>& choice) {
   SdagBuild b = buildSdagWith(maps, choice, true);
   if (!b.xformCharged && (b.dir.xform[0] | b.dir.xform[1]) == 0) return b;
   SdagBuild plain = buildSdagWith(maps, choice, false);
@@ -1738,7 +1767,7 @@ Result<EncodedArray> EncodedArray::build(const OmmArray& array, Encoding encodin
   // Descriptors sharing one map (same offset, level and format) share its encoded map: memory and work stay
   // bounded by the distinct maps, not descriptors × map size (docs/hardening.md). Arrays made by OmmArrayBuilder
   // have no such sharing, so their encoding is unchanged.
-  std::vector<Micromap> maps;
+  std::vector<encode::MapRef> maps;
   std::vector<uint32_t> mapOfDescriptor;
   mapOfDescriptor.reserve(mapCount);
   std::map<std::tuple<uint32_t, uint16_t, uint16_t>, uint32_t> seen;
@@ -1753,10 +1782,8 @@ Result<EncodedArray> EncodedArray::build(const OmmArray& array, Encoding encodin
         seen.emplace(std::make_tuple(d.dataOffset, d.subdivisionLevel, d.format), uint32_t(maps.size()));
     mapOfDescriptor.push_back(it->second);
     if (!fresh) continue;
-    Micromap m(d.subdivisionLevel, f);
-    std::memcpy(m.bytes().data(), array.data.data() + d.dataOffset, m.bytes().size());
-    flatTotal += m.bytes().size();
-    maps.push_back(std::move(m));
+    maps.emplace_back(array.data.data() + d.dataOffset, d.subdivisionLevel, f);  // the array's bytes, no copy
+    flatTotal += maps.back().bytes().size();
   }
   if (flatTotal > UINT32_MAX / 2)
     return makeError(ErrorCode::LimitExceeded, "encoded micromap data exceeds 2 GiB");
@@ -1768,7 +1795,7 @@ Result<EncodedArray> EncodedArray::build(const OmmArray& array, Encoding encodin
     encode::DagTables tables;
     std::vector<encode::DagRoot> roots;
     roots.reserve(maps.size());
-    for (const Micromap& m : maps) roots.push_back(encode::internMap(m, tables));
+    for (const encode::MapRef& m : maps) roots.push_back(encode::internMap(m, tables));
     data = encode::emitCsm(tables, roots, offsets);
     kinds.assign(maps.size(), encode::DagMapOut{MapKind::Csm, {}});
   } else if (encoding == Encoding::Sdag || encoding == Encoding::Hybrid) {
@@ -1778,7 +1805,7 @@ Result<EncodedArray> EncodedArray::build(const OmmArray& array, Encoding encodin
       // Cannot happen with the per-map choice unless sharing shifted; the bound holds regardless.
       std::vector<encode::DagRoot> roots;
       roots.reserve(maps.size());
-      for (const Micromap& m : maps) roots.push_back(encode::DagRoot{m.level(), m.format()});
+      for (const encode::MapRef& m : maps) roots.push_back(encode::DagRoot{m.level(), m.format()});
       best.kinds = blobKinds(maps, Encoding::Flat);
       best.dir = {};
       best.data = encode::emitSdag(encode::DagTables{}, roots, best.kinds, best.offsets, best.dir);

@@ -142,18 +142,18 @@ class BitWriter {
 
 // vals[d][i]: state of node i at depth d when its subtree is uniform, kMixed otherwise. Node i at depth d
 // covers the micro-triangles [i·4^(L-d), (i+1)·4^(L-d)); its children are 4i..4i+3 at depth d+1.
-// `leaves` false (level ≥ 2 only): vals[L] (a byte per micro-triangle, most of the work and memory at high levels)
-// is left empty and vals[L − 1] is read straight from the packed bytes — a node of depth L − 1 is one byte of a
-// 4-state map (uniform: 0x00, 0x55, 0xAA, 0xFF) or one nibble of a 2-state map (0x0, 0xF); the DAG builders read
-// the leaves from the map's bytes (internRecord).
-std::vector<std::vector<uint8_t>> nodeValues(MapRef map, bool leaves = true) {
+// From level 2 on, vals[L] (a byte per micro-triangle: most of the work and memory at high levels) is left empty
+// and vals[L − 1] is read straight from the packed bytes — a node of depth L − 1 is one byte of a 4-state map
+// (uniform: 0x00, 0x55, 0xAA, 0xFF) or one nibble of a 2-state map (0x0, 0xF); the encoders read the leaves from
+// the map (emitDfs, encodeRank, internRecord). Levels 0 and 1 keep vals[L].
+std::vector<std::vector<uint8_t>> nodeValues(MapRef map) {
   const uint32_t level = map.level();
   std::vector<std::vector<uint8_t>> vals(level + 1);
   const size_t n = map.size();
   const uint8_t* bytes = map.bytes().data();
   const uint32_t bits = bitsPerState(map.format()), perByte = 8 / bits, mask = (1u << bits) - 1;
   uint32_t below = level;  // the deepest depth made
-  if (!leaves && level >= 2) {
+  if (level >= 2) {
     below = level - 1;
     std::vector<uint8_t>& v = vals[below];
     v.resize(n / 4);
@@ -193,16 +193,17 @@ std::vector<std::vector<uint8_t>> nodeValues(MapRef map, bool leaves = true) {
   return vals;
 }
 
-void emitDfs(const std::vector<std::vector<uint8_t>>& vals, uint32_t d, uint32_t i, uint32_t bps,
-             BitWriter& t, BitWriter& v) {
-  const uint8_t s = vals[d][i];
+// (a leaf's state is read from the map: nodeValues leaves vals[L] empty)
+void emitDfs(const std::vector<std::vector<uint8_t>>& vals, const MapRef& map, uint32_t d, uint32_t i,
+             uint32_t bps, BitWriter& t, BitWriter& v) {
+  const uint8_t s = d == map.level() ? uint8_t(map.get(i)) : vals[d][i];
   if (s != kMixed) {
     t.putBit(0);
     v.put(s, bps);
     return;
   }
   t.putBit(1);
-  for (uint32_t c = 0; c < 4; ++c) emitDfs(vals, d + 1, 4 * i + c, bps, t, v);
+  for (uint32_t c = 0; c < 4; ++c) emitDfs(vals, map, d + 1, 4 * i + c, bps, t, v);
 }
 
 std::vector<uint8_t> encodeDfs(MapRef map) {
@@ -214,7 +215,7 @@ std::vector<uint8_t> encodeDfs(MapRef map) {
   BitWriter out, t, v;
   out.put(internal, countFieldBits(map.level()));
   out.padToByte();
-  emitDfs(vals, 0, 0, bps, t, v);
+  emitDfs(vals, map, 0, 0, bps, t, v);
   out.append(t);
   out.append(v);
   return out.bytes();
@@ -242,7 +243,7 @@ std::vector<uint8_t> encodeRank(MapRef map) {
     }
     nodes.swap(next);
   }
-  for (uint32_t i : nodes) values.put(vals[level][i], bps);
+  for (uint32_t i : nodes) values.put(uint32_t(map.get(i)), bps);
   const uint64_t nf = flags.bits();
   uint32_t full = 0;  // leading levels whose nodes are all internal
   while (full < level &&
@@ -308,7 +309,7 @@ Error corrupt(std::string_view msg) {
 }  // namespace
 
 TreeShape treeShape(const Micromap& map) {
-  const auto vals = nodeValues(map, false);  // depths below the level only
+  const auto vals = nodeValues(map);
   TreeShape s;
   for (uint32_t d = 0; d < map.level(); ++d)
     for (uint8_t v : vals[d])
@@ -579,8 +580,7 @@ struct DagTables {
   }
 };
 
-// A map's node values without the leaves (nodeValues(map, false)) and its packed bytes, where internRecord reads
-// the leaves.
+// A map's node values (nodeValues: without the leaves) and its packed bytes, where internRecord reads the leaves.
 struct NodeVals {
   std::vector<std::vector<uint8_t>> v;
   const uint8_t* bytes = nullptr;
@@ -663,7 +663,7 @@ DagRoot internMap(MapRef m, DagTables& tables) {
     for (uint32_t i = 0; i < m.size(); ++i) r.byte = uint8_t(r.byte | uint32_t(m.get(i)) << (b * i));
     return r;
   }
-  const NodeVals vals{nodeValues(m, false), m.bytes().data()};
+  const NodeVals vals{nodeValues(m), m.bytes().data()};
   if (r.level % 2 == 0) {
     r.id = internRecord(vals, r.level, r.format, 0, 0, tables);
   } else {

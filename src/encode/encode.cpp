@@ -155,17 +155,23 @@ std::vector<std::vector<uint8_t>> nodeValues(MapRef map) {
   uint32_t below = level;  // the deepest depth made
   if (level >= 2) {
     below = level - 1;
-    std::vector<uint8_t>& v = vals[below];
-    v.resize(n / 4);
+    vals[below].resize(n / 4);
+    uint8_t* const v =
+        vals[below].data();  // (locals: stores through v cannot move the vector's own pointers)
+    const size_t nodes = n / 4;
     if (map.format() == Format::FourState) {
-      for (size_t i = 0; i < v.size(); ++i) {
-        const uint8_t b = bytes[i];
-        v[i] = b % 0x55u == 0 ? uint8_t(b / 0x55u) : kMixed;  // 0x00, 0x55, 0xAA, 0xFF: all 0, 1, 2, 3
-      }
+      // 0x00, 0x55, 0xAA, 0xFF: all 0, 1, 2, 3; any other byte mixed.
+      static constexpr auto kByteNode = [] {
+        std::array<uint8_t, 256> t{};
+        for (uint32_t b = 0; b < 256; ++b) t[b] = b % 0x55u == 0 ? uint8_t(b / 0x55u) : kMixed;
+        return t;
+      }();
+      for (size_t i = 0; i < nodes; ++i) v[i] = kByteNode[bytes[i]];
     } else {
-      for (size_t i = 0; i < v.size(); ++i) {
-        const uint32_t nib = (uint32_t(bytes[i / 2]) >> (4 * (i & 1u))) & 15u;
-        v[i] = nib == 0 ? 0 : nib == 15 ? 1 : kMixed;
+      for (size_t i = 0; i < nodes; i += 2) {  // (nodes is a multiple of 4 from level 2 on)
+        const uint32_t b = bytes[i / 2], lo = b & 15u, hi = b >> 4;
+        v[i] = lo == 0 ? 0 : lo == 15 ? 1 : kMixed;
+        v[i + 1] = hi == 0 ? 0 : hi == 15 ? 1 : kMixed;
       }
     }
   } else {
@@ -180,12 +186,13 @@ std::vector<std::vector<uint8_t>> nodeValues(MapRef map) {
     for (; i < n; ++i) leaf[i] = uint8_t(map.get(uint32_t(i)));
   }
   for (uint32_t d = below; d-- > 0;) {
-    const std::vector<uint8_t>& c = vals[d + 1];
-    std::vector<uint8_t>& v = vals[d];
-    v.resize(c.size() / 4);
-    for (size_t i = 0; i < v.size(); ++i) {
+    const size_t count = vals[d + 1].size() / 4;
+    vals[d].resize(count);
+    const uint8_t* const c = vals[d + 1].data();
+    uint8_t* const v = vals[d].data();
+    for (size_t i = 0; i < count; ++i) {
       uint32_t w;  // the 4 children's values, one word
-      std::memcpy(&w, c.data() + 4 * i, 4);
+      std::memcpy(&w, c + 4 * i, 4);
       const uint8_t a = uint8_t(w);
       v[i] = (a != kMixed && w == a * 0x01010101u) ? a : kMixed;
     }

@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
-#include <cassert>
 #include <cstring>
 #include <map>
 #include <stdexcept>
@@ -685,12 +684,6 @@ uint32_t bitsFor(uint64_t n) {  // bits to hold 0 .. n-1
   return w;
 }
 
-uint32_t nodeChildren(const Key& k, uint32_t slots) {
-  uint32_t n = 0;
-  for (uint32_t s = 0; s < slots; ++s) n += k[s] >= kNodeCode;
-  return n;
-}
-
 // Whether the uniform children (codes < kNodeCode) of a 16-slot record all hold one state (true when there is at
 // most one): its states field is then E = 0 and that state.
 bool sdagUniformStatesAgree(const Key& k) {
@@ -736,6 +729,13 @@ struct SdagLayout {
            : hFlags(k) && localRec(k, id) ? 0u
                                           : width[k];
   }
+  // The bits a reference to record id of region k costs in its parent besides the parent's per-child tier bit: the
+  // reference, the G flag (not short, with mid tiers) and the H flag (neither short nor mid, leaf region with local
+  // leaves). A local record's cost does not depend on its reference.
+  uint32_t childBits(uint32_t k, uint32_t id) const {
+    return refBits(k, id) + (mid[k] != 0 && !isShort(k, id)) +
+           (hFlags(k) && !isShort(k, id) && !isMid(k, id));
+  }
 };
 
 // Bits of the uniform children's states of a record of `slots` children, n of them nodes: 1 bit each in a 4-way
@@ -747,18 +747,21 @@ uint32_t sdagKeyStatesBits(const Key& k, uint32_t slots, uint32_t n) {
   return sdagUniformStatesAgree(k) ? 2 : 17 - n;
 }
 
-// Bytes of a record of `slots` children whose node children are in region `below`.
-uint64_t sdagNodeBytes(const Key& k, uint32_t slots, const SdagLayout& l, uint32_t below) {
-  const uint32_t n = nodeChildren(k, slots);
-  uint64_t bits = slots + sdagKeyStatesBits(k, slots, n) + (l.tier[below] != 0 ? n : 0);
+// Bytes of a record of `slots` children whose node children are in region `below`; `cost(id)`: childBits of
+// record id of that region.
+template <class Cost>
+uint64_t sdagNodeBytesWith(const Key& k, uint32_t slots, const SdagLayout& l, uint32_t below, Cost cost) {
+  uint32_t n = 0;
+  uint64_t bits = 0;
   for (uint32_t s = 0; s < slots; ++s)
     if (k[s] >= kNodeCode) {
-      bits += l.refBits(below, k[s] - kNodeCode);
-      bits += l.mid[below] != 0 && !l.isShort(below, k[s] - kNodeCode);  // G
-      bits +=
-          l.hFlags(below) && !l.isShort(below, k[s] - kNodeCode) && !l.isMid(below, k[s] - kNodeCode);  // H
+      ++n;
+      bits += cost(k[s] - kNodeCode);
     }
-  return (bits + 7) / 8;
+  return (bits + slots + sdagKeyStatesBits(k, slots, n) + (l.tier[below] != 0 ? n : 0) + 7) / 8;
+}
+uint64_t sdagNodeBytes(const Key& k, uint32_t slots, const SdagLayout& l, uint32_t below) {
+  return sdagNodeBytesWith(k, slots, l, below, [&](uint32_t id) { return l.childBits(below, id); });
 }
 
 // below[b] = uses of the records (in `order`, references increasing) whose reference is < 2^b, b = 0..w.
@@ -980,24 +983,12 @@ std::pair<uint64_t, uint64_t> placeParents(SdagLayout& l, uint32_t k, const DagT
   const auto& recs = tables.t[k + 1].records;
   uint64_t reach = 0, total = 0;
   l.own[k + 1].resize(recs.size());
-  // What a reference to each record of region k costs in a parent (sdagNodeBytes' per-child bits), once per record
-  // rather than once per reference. A local record's cost does not depend on its reference (set below).
+  // Each record of region k's childBits once, not once per reference (see childBits: a local record's cost does
+  // not depend on the reference set below).
   std::vector<uint32_t> cost(tables.t[k].records.size());
-  for (uint32_t id = 0; id < cost.size(); ++id)
-    cost[id] = l.refBits(k, id) + (l.mid[k] != 0 && !l.isShort(k, id)) +
-               (l.hFlags(k) && !l.isShort(k, id) && !l.isMid(k, id));
-  const uint32_t tierBit = l.tier[k] != 0 ? 1u : 0u;
+  for (uint32_t id = 0; id < cost.size(); ++id) cost[id] = l.childBits(k, id);
   for (size_t id = 0; id < recs.size(); ++id) {
-    uint32_t n = 0;
-    uint64_t bits = 0;
-    for (uint32_t c : recs[id])
-      if (c >= kNodeCode) {
-        ++n;
-        bits += cost[c - kNodeCode];
-      }
-    bits += 16 + sdagKeyStatesBits(recs[id], 16, n) + tierBit * n;
-    const uint64_t own = (bits + 7) / 8;  // = sdagNodeBytes(recs[id], 16, l, k)
-    assert(own == sdagNodeBytes(recs[id], 16, l, k));
+    const uint64_t own = sdagNodeBytesWith(recs[id], 16, l, k, [&](uint32_t c) { return cost[c]; });
     l.own[k + 1][id] = own;
     total += own;
     uint64_t off = own;

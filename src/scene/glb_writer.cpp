@@ -103,14 +103,6 @@ struct Taps {
   std::vector<double> weight;
 };
 
-uint32_t wrapIndex(int64_t i, uint32_t n, Wrap w) {
-  const int64_t N = n;
-  if (w == Wrap::ClampToEdge) return uint32_t(std::clamp<int64_t>(i, 0, N - 1));
-  if (w == Wrap::Repeat) return uint32_t(((i % N) + N) % N);
-  const int64_t p = ((i % (2 * N)) + 2 * N) % (2 * N);  // mirrored repeat
-  return uint32_t(p < N ? p : 2 * N - 1 - p);
-}
-
 Taps axisTaps(uint32_t n, uint32_t m, Wrap w) {
   Taps t;
   t.first.reserve(size_t(m) + 1);
@@ -130,9 +122,9 @@ Taps axisTaps(uint32_t n, uint32_t m, Wrap w) {
     } else {
       const double s = (double(x) + 0.5) * double(n) / double(m) - 0.5;
       const double f0 = std::floor(s), f = s - f0;
-      t.index.push_back(wrapIndex(int64_t(f0), n, w));
+      t.index.push_back(wrapTexel(int64_t(f0), n, w));
       t.weight.push_back(1 - f);
-      t.index.push_back(wrapIndex(int64_t(f0) + 1, n, w));
+      t.index.push_back(wrapTexel(int64_t(f0) + 1, n, w));
       t.weight.push_back(f);
     }
   }
